@@ -1,0 +1,46 @@
+# silpose_library(NAME name SOURCES ... LINKS ...): one layer = one library target silpose_<name>,
+# alias silpose::<name>. Each layer names what it links, so the layering is checked at link time.
+function(silpose_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
+                         -Wno-sign-conversion)
+  if(SILPOSE_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+  if(SILPOSE_CLANG_TIDY)
+    set_target_properties(${target} PROPERTIES CXX_CLANG_TIDY clang-tidy)
+  endif()
+endfunction()
+
+function(silpose_library)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;LINKS;PRIVATE_LINKS" ${ARGN})
+  set(target silpose_${ARG_NAME})
+  add_library(${target} ${ARG_SOURCES})
+  add_library(silpose::${ARG_NAME} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC ${ARG_LINKS} PRIVATE ${ARG_PRIVATE_LINKS})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME} POSITION_INDEPENDENT_CODE ON)
+  silpose_warnings(${target})
+  install(TARGETS ${target} EXPORT silposeTargets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/silpose/${ARG_NAME}
+          FILES_MATCHING PATTERN "*.h")
+endfunction()
+
+# silpose_test(NAME name SOURCES ... LINKS ...): a GoogleTest executable registered with CTest.
+function(silpose_test)
+  if(NOT SILPOSE_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;LINKS;LABELS" ${ARGN})
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LINKS} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${ARG_NAME} PRIVATE
+    SILPOSE_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data"
+    SILPOSE_SAMPLE_MODELS_DIR="${PROJECT_SOURCE_DIR}/data/models")
+  silpose_warnings(${ARG_NAME})
+  gtest_discover_tests(${ARG_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
+endfunction()
