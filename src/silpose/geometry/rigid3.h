@@ -17,9 +17,7 @@ struct Rigid3 {
   Rigid3 operator*(const Rigid3& other) const {
     return {rotation * other.rotation, rotation * other.translation + translation};
   }
-  Rigid3 Inverse() const {
-    return {rotation.transpose(), -(rotation.transpose() * translation)};
-  }
+  Rigid3 Inverse() const { return {rotation.transpose(), -(rotation.transpose() * translation)}; }
 };
 
 }  // namespace silpose

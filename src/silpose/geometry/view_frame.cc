@@ -42,8 +42,7 @@ Rigid3 CameraFromObjectAtView(const Eigen::Vector3d& view_dir_in_object, double 
                               double distance, const Eigen::Vector3d& object_centre) {
   Rigid3 pose;
   pose.rotation = CameraFromObjectRotation(view_dir_in_object, roll_deg);
-  const Eigen::Vector3d camera_centre =
-      object_centre + distance * view_dir_in_object.normalized();
+  const Eigen::Vector3d camera_centre = object_centre + distance * view_dir_in_object.normalized();
   pose.translation = -(pose.rotation * camera_centre);
   return pose;
 }

@@ -25,7 +25,8 @@ Eigen::Vector3d ReferenceUpInObject(const Eigen::Vector3d& view_dir_in_object);
 
 /// Rotation camera_from_object (rows: camera x, y, z axes in the model frame) for a camera on
 /// `view_dir_in_object` (need not be normalised, must be non-zero) with roll `roll_deg`.
-Eigen::Matrix3d CameraFromObjectRotation(const Eigen::Vector3d& view_dir_in_object, double roll_deg);
+Eigen::Matrix3d CameraFromObjectRotation(const Eigen::Vector3d& view_dir_in_object,
+                                         double roll_deg);
 
 /// Full camera_from_object pose: camera centre at object_centre + distance * view_dir, looking at
 /// object_centre, rolled by roll_deg. `distance` in model units.

@@ -6,8 +6,8 @@
 namespace silpose::internal {
 
 void AssertionFailed(const char* expression, const char* file, int line) {
-  std::fprintf(stderr, "silpose: internal error: assertion '%s' failed at %s:%d\n", expression, file,
-               line);
+  std::fprintf(stderr, "silpose: internal error: assertion '%s' failed at %s:%d\n", expression,
+               file, line);
   std::abort();
 }
 

@@ -31,6 +31,6 @@ namespace internal {
 
 }  // namespace silpose
 
-#define SILPOSE_ASSERT(expression)                                                \
-  ((expression) ? static_cast<void>(0)                                            \
+#define SILPOSE_ASSERT(expression)     \
+  ((expression) ? static_cast<void>(0) \
                 : ::silpose::internal::AssertionFailed(#expression, __FILE__, __LINE__))

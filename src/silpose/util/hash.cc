@@ -9,9 +9,7 @@
 
 namespace silpose {
 
-uint64_t HashBytes(const void* data, size_t size, uint64_t seed) {
-  return XXH64(data, size, seed);
-}
+uint64_t HashBytes(const void* data, size_t size, uint64_t seed) { return XXH64(data, size, seed); }
 
 uint64_t HashFile(const std::filesystem::path& path) {
   std::ifstream stream(path, std::ios::binary);

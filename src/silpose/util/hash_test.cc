@@ -14,9 +14,7 @@ namespace {
 TEST(Hash, FileHashEqualsByteHashAndDetectsEverySingleByteChange) {
   const std::string content(100000, 'x');
   const auto path = std::filesystem::temp_directory_path() / "silpose_hash_test.bin";
-  {
-    std::ofstream(path, std::ios::binary) << content;
-  }
+  { std::ofstream(path, std::ios::binary) << content; }
   EXPECT_EQ(HashFile(path), HashBytes(content.data(), content.size()));
   std::string changed = content;
   for (size_t i = 0; i < changed.size(); i += 997) {

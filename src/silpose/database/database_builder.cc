@@ -1,0 +1,104 @@
+#include "silpose/database/database_builder.h"
+
+#include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <algorithm>
+#include <set>
+#include <sstream>
+
+#include "silpose/util/error.h"
+#include "silpose/util/hash.h"
+#include "silpose/util/progress.h"
+
+namespace silpose {
+
+bool DatabaseBuildOptions::Check(std::string* error) const {
+  if (!parameters.Check(error)) return false;
+  if (num_threads < 0) {
+    if (error != nullptr) *error = "thread count must be >= 0 (0 = all cores)";
+    return false;
+  }
+  return true;
+}
+
+void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
+                        const DatabaseParameters& parameters, int num_threads,
+                        const std::function<void(int)>& on_views_done, ModelViews* model) {
+  const int num_views = sphere.num_views();
+  const int length = parameters.signature.length;
+  model->name = mesh.name;
+  const Eigen::Vector3d centre = mesh.Centre();
+  for (int i = 0; i < 3; ++i) model->centre[i] = centre[i];
+  model->radius = mesh.Radius();
+  model->num_vertices = static_cast<uint32_t>(mesh.vertices.size());
+  model->num_triangles = static_cast<uint32_t>(mesh.triangles.size());
+  model->views.assign(static_cast<size_t>(num_views), ViewRecord{});
+  model->signatures.assign(static_cast<size_t>(num_views) * static_cast<size_t>(length), 0.0f);
+
+  tbb::enumerable_thread_specific<cv::Mat> masks;
+  auto describe = [&](const tbb::blocked_range<int>& range) {
+    cv::Mat& mask = masks.local();
+    for (int v = range.begin(); v != range.end(); ++v) {
+      RenderView(mesh, sphere.directions[static_cast<size_t>(v)], 0.0, parameters.render, &mask);
+      const SignatureResult result = ExtractSignature(mask, parameters.signature);
+      ViewRecord& record = model->views[static_cast<size_t>(v)];
+      record.status = result.status;
+      record.flags = result.flags;
+      record.area_px = static_cast<float>(result.signature.area_px);
+      if (result.ok()) {
+        const PolarSignature& signature = result.signature;
+        record.mean_radius_px = static_cast<float>(signature.mean_radius_px);
+        record.centroid_x_px = static_cast<float>(signature.centroid_px.x());
+        record.centroid_y_px = static_cast<float>(signature.centroid_px.y());
+        record.relative_std = static_cast<float>(signature.relative_std);
+        std::copy(signature.radii.begin(), signature.radii.end(),
+                  model->MutableSignature(v).begin());
+      }
+    }
+    if (on_views_done) on_views_done(static_cast<int>(range.size()));
+  };
+  if (num_threads == 1) {
+    describe(tbb::blocked_range<int>(0, num_views));
+  } else {
+    tbb::task_arena arena(num_threads > 0 ? num_threads : tbb::task_arena::automatic);
+    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 8), describe); });
+  }
+}
+
+ViewDatabase BuildViewDatabase(const std::vector<std::filesystem::path>& mesh_paths,
+                               const DatabaseBuildOptions& options) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError("invalid database options: ", error);
+  if (mesh_paths.empty()) ThrowError("no model given: the database needs at least one mesh");
+  std::set<std::string> names;
+  for (const auto& path : mesh_paths) {
+    if (!names.insert(path.stem().string()).second) {
+      ThrowError(path.string(), ": another model is also named '", path.stem().string(),
+                 "' (model names are file stems and must be unique)");
+    }
+  }
+
+  ViewDatabase database;
+  database.parameters = options.parameters;
+  database.sphere = BuildViewSphere(options.parameters.view_sphere);
+  const int num_views = database.sphere.num_views();
+  ProgressBar progress("build-db", static_cast<int64_t>(mesh_paths.size()) * num_views,
+                       options.show_progress && ProgressBar::StderrIsTerminal());
+  database.models.resize(mesh_paths.size());
+  for (size_t i = 0; i < mesh_paths.size(); ++i) {
+    const TriangleMesh mesh = LoadMesh(mesh_paths[i]);
+    ModelViews& model = database.models[i];
+    DescribeModelViews(
+        mesh, database.sphere, options.parameters, options.num_threads,
+        [&progress](int done) { progress.Advance(done); }, &model);
+    model.source_path = mesh_paths[i].string();
+    model.mesh_hash = HashFile(mesh_paths[i]);
+  }
+  progress.Finish();
+  return database;
+}
+
+}  // namespace silpose

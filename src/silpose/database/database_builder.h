@@ -1,0 +1,37 @@
+#pragma once
+// Building the view database from meshes (paper 4.1): every model is rendered from every view of
+// the sphere (roll 0) and each silhouette is described by its polar signature.
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "silpose/database/view_database.h"
+#include "silpose/mesh/triangle_mesh.h"
+
+namespace silpose {
+
+struct DatabaseBuildOptions {
+  DatabaseParameters parameters;
+  /// Worker threads; 0 = all cores.
+  int num_threads = 0;
+  /// Show a progress bar on stderr when it is a terminal.
+  bool show_progress = false;
+
+  bool Check(std::string* error = nullptr) const;
+};
+
+/// Builds the database for the meshes at `mesh_paths` (model names: file stems, which must be
+/// unique). Throws silpose::Error if a mesh cannot be loaded or the options are invalid.
+ViewDatabase BuildViewDatabase(const std::vector<std::filesystem::path>& mesh_paths,
+                               const DatabaseBuildOptions& options);
+
+/// Renders and describes all views of one loaded mesh into `model` (name, geometry fields, views
+/// and signatures; `mesh_hash` and `source_path` are left to the caller). `sphere` must have been
+/// built from parameters.view_sphere.
+void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
+                        const DatabaseParameters& parameters, int num_threads,
+                        const std::function<void(int)>& on_views_done, ModelViews* model);
+
+}  // namespace silpose

@@ -1,0 +1,409 @@
+#include "silpose/database/view_database.h"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <type_traits>
+
+#include "silpose/util/error.h"
+#include "silpose/util/hash.h"
+
+namespace silpose {
+namespace {
+
+// The file is little-endian; this code writes the host's representation directly.
+static_assert(std::endian::native == std::endian::little,
+              "the database reader/writer assumes a little-endian host");
+
+constexpr char kMagic[8] = {'S', 'I', 'L', 'P', 'O', 'S', 'D', 'B'};
+// magic, version (u32), payload size (u64)
+constexpr size_t kHeaderSize = 8 + 4 + 8;
+constexpr size_t kChecksumSize = 8;
+constexpr uint32_t kSamplingFibonacci = 1;
+constexpr uint32_t kRollReferenceZUp = 1;
+
+class Writer {
+ public:
+  template <typename T>
+  void Put(T value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+  template <typename T>
+  void PutArray(std::span<const T> values) {
+    bytes_.append(reinterpret_cast<const char*>(values.data()), values.size_bytes());
+  }
+  void PutString(const std::string& text) {
+    Put<uint32_t>(static_cast<uint32_t>(text.size()));
+    bytes_.append(text);
+  }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+class Reader {
+ public:
+  Reader(std::string_view bytes, const std::string& source) : bytes_(bytes), source_(source) {}
+
+  template <typename T>
+  T Get(const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    Need(sizeof(T), what);
+    T value;
+    std::memcpy(&value, bytes_.data() + position_, sizeof(T));
+    position_ += sizeof(T);
+    return value;
+  }
+  template <typename T>
+  void GetArray(std::span<T> values, const char* what) {
+    Need(values.size_bytes(), what);
+    std::memcpy(values.data(), bytes_.data() + position_, values.size_bytes());
+    position_ += values.size_bytes();
+  }
+  std::string GetString(const char* what, size_t max_length) {
+    const auto length = Get<uint32_t>(what);
+    if (length > max_length) Fail(what, " is ", length, " bytes long (at most ", max_length, ")");
+    Need(length, what);
+    std::string text(bytes_.substr(position_, length));
+    position_ += length;
+    return text;
+  }
+  size_t remaining() const { return bytes_.size() - position_; }
+
+  template <typename... Parts>
+  [[noreturn]] void Fail(const Parts&... parts) const {
+    ThrowError(source_, ": corrupt database: ", parts...);
+  }
+
+ private:
+  void Need(size_t size, const char* what) const {
+    if (size > remaining()) Fail(what, " runs past the end of the data");
+  }
+
+  std::string_view bytes_;
+  const std::string& source_;
+  size_t position_ = 0;
+};
+
+// Counts read from the file are checked against this before anything is allocated.
+constexpr uint32_t kMaxViews = 1'000'000;
+constexpr uint32_t kMaxModels = 100'000;
+
+}  // namespace
+
+bool DatabaseParameters::Check(std::string* error) const {
+  std::string detail;
+  if (!view_sphere.Check(&detail)) {
+    if (error != nullptr) *error = "view sphere: " + detail;
+    return false;
+  }
+  if (!render.Check(&detail)) {
+    if (error != nullptr) *error = "rendering: " + detail;
+    return false;
+  }
+  if (!signature.Check(&detail)) {
+    if (error != nullptr) *error = "signature: " + detail;
+    return false;
+  }
+  return true;
+}
+
+bool DatabaseParameters::operator==(const DatabaseParameters& other) const {
+  const auto& a = *this;
+  const auto& b = other;
+  return a.view_sphere.num_views == b.view_sphere.num_views &&
+         a.view_sphere.neighbour_radius_factor == b.view_sphere.neighbour_radius_factor &&
+         a.view_sphere.num_bins == b.view_sphere.num_bins &&
+         a.view_sphere.kmeans_seed == b.view_sphere.kmeans_seed &&
+         a.view_sphere.kmeans_max_iterations == b.view_sphere.kmeans_max_iterations &&
+         a.render.resolution_px == b.render.resolution_px &&
+         a.render.distance_in_radii == b.render.distance_in_radii &&
+         a.render.fill_fraction == b.render.fill_fraction &&
+         a.signature.length == b.signature.length &&
+         a.signature.min_area_px == b.signature.min_area_px &&
+         a.signature.circular_threshold == b.signature.circular_threshold;
+}
+
+std::span<const float> ModelViews::Signature(int view) const {
+  const size_t length = signatures.size() / views.size();
+  return {signatures.data() + static_cast<size_t>(view) * length, length};
+}
+
+std::span<float> ModelViews::MutableSignature(int view) {
+  const size_t length = signatures.size() / views.size();
+  return {signatures.data() + static_cast<size_t>(view) * length, length};
+}
+
+int ModelViews::signature_length() const {
+  return views.empty() ? 0 : static_cast<int>(signatures.size() / views.size());
+}
+
+int ViewDatabase::FindModel(const std::string& name) const {
+  for (size_t i = 0; i < models.size(); ++i) {
+    if (models[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::string ViewDatabase::Serialize() const {
+  std::string error;
+  if (!parameters.Check(&error)) ThrowError("cannot write database: ", error);
+  const auto num_views = static_cast<uint32_t>(sphere.num_views());
+  const auto length = static_cast<uint32_t>(parameters.signature.length);
+  SILPOSE_ASSERT(num_views == static_cast<uint32_t>(parameters.view_sphere.num_views));
+
+  Writer out;
+  out.bytes().append(kMagic, sizeof(kMagic));
+  out.Put<uint32_t>(kFormatVersion);
+  out.Put<uint64_t>(0);  // payload size, patched below
+
+  // Generation parameters.
+  out.Put<uint32_t>(kSamplingFibonacci);
+  out.Put<uint32_t>(kRollReferenceZUp);
+  out.Put<uint32_t>(num_views);
+  out.Put<double>(parameters.view_sphere.neighbour_radius_factor);
+  out.Put<uint32_t>(static_cast<uint32_t>(parameters.view_sphere.num_bins));
+  out.Put<uint64_t>(parameters.view_sphere.kmeans_seed);
+  out.Put<uint32_t>(static_cast<uint32_t>(parameters.view_sphere.kmeans_max_iterations));
+  out.Put<uint32_t>(static_cast<uint32_t>(parameters.render.resolution_px));
+  out.Put<double>(parameters.render.distance_in_radii);
+  out.Put<double>(parameters.render.fill_fraction);
+  out.Put<uint32_t>(length);
+  out.Put<double>(parameters.signature.min_area_px);
+  out.Put<double>(parameters.signature.circular_threshold);
+
+  // View sphere.
+  out.Put<double>(sphere.typical_spacing_rad);
+  for (const auto& d : sphere.directions) {
+    out.Put<double>(d.x());
+    out.Put<double>(d.y());
+    out.Put<double>(d.z());
+  }
+  out.Put<uint32_t>(static_cast<uint32_t>(sphere.neighbour_indices.size()));
+  out.PutArray<uint32_t>(sphere.neighbour_offsets);
+  out.PutArray<uint32_t>(sphere.neighbour_indices);
+  out.Put<uint32_t>(static_cast<uint32_t>(sphere.num_bins()));
+  for (const auto& c : sphere.bin_centres) {
+    out.Put<double>(c.x());
+    out.Put<double>(c.y());
+    out.Put<double>(c.z());
+  }
+  out.PutArray<uint32_t>(sphere.bin_of_view);
+
+  // Models.
+  out.Put<uint32_t>(static_cast<uint32_t>(models.size()));
+  for (const ModelViews& model : models) {
+    SILPOSE_ASSERT(model.views.size() == num_views);
+    SILPOSE_ASSERT(model.signatures.size() == static_cast<size_t>(num_views) * length);
+    out.PutString(model.name);
+    out.PutString(model.source_path);
+    out.Put<uint64_t>(model.mesh_hash);
+    for (double c : model.centre) out.Put<double>(c);
+    out.Put<double>(model.radius);
+    out.Put<uint32_t>(model.num_vertices);
+    out.Put<uint32_t>(model.num_triangles);
+    for (const ViewRecord& view : model.views) {
+      out.Put<uint8_t>(static_cast<uint8_t>(view.status));
+      out.Put<uint32_t>(view.flags);
+      out.Put<float>(view.mean_radius_px);
+      out.Put<float>(view.centroid_x_px);
+      out.Put<float>(view.centroid_y_px);
+      out.Put<float>(view.area_px);
+      out.Put<float>(view.relative_std);
+    }
+    out.PutArray<float>(model.signatures);
+  }
+
+  std::string& bytes = out.bytes();
+  const uint64_t payload_size = bytes.size() - kHeaderSize;
+  std::memcpy(bytes.data() + 12, &payload_size, sizeof(payload_size));
+  const uint64_t checksum = HashBytes(bytes.data(), bytes.size());
+  out.Put<uint64_t>(checksum);
+  return std::move(bytes);
+}
+
+void ViewDatabase::Write(const std::filesystem::path& path) const {
+  const std::string bytes = Serialize();
+  std::filesystem::path temporary = path;
+  temporary += ".tmp";
+  {
+    std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
+    if (!stream) ThrowError(path.string(), ": cannot open for writing");
+    stream.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    stream.close();
+    if (!stream) {
+      std::error_code ignored;
+      std::filesystem::remove(temporary, ignored);
+      ThrowError(path.string(), ": write failed (disk full?)");
+    }
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  if (error) ThrowError(path.string(), ": cannot write: ", error.message());
+}
+
+ViewDatabase ViewDatabase::Read(const std::filesystem::path& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) ThrowError(path.string(), ": no such file");
+  if (std::filesystem::is_directory(path, error)) {
+    ThrowError(path.string(), ": is a directory, not a database file");
+  }
+  std::ifstream stream(path, std::ios::binary);
+  if (!stream) ThrowError(path.string(), ": cannot open for reading");
+  std::ostringstream contents;
+  contents << stream.rdbuf();
+  if (stream.bad()) ThrowError(path.string(), ": read error");
+  return Deserialize(contents.str(), path.string());
+}
+
+ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string& source) {
+  const size_t magic_bytes = std::min(bytes.size(), sizeof(kMagic));
+  if (bytes.empty() || std::memcmp(bytes.data(), kMagic, magic_bytes) != 0) {
+    ThrowError(source, ": not a silpose view database (no SILPOSDB magic number)");
+  }
+  if (bytes.size() < kHeaderSize + kChecksumSize) {
+    ThrowError(source, ": truncated database (", bytes.size(), " bytes, header alone needs ",
+               kHeaderSize + kChecksumSize, ")");
+  }
+  uint32_t version = 0;
+  std::memcpy(&version, bytes.data() + 8, sizeof(version));
+  if (version != kFormatVersion) {
+    ThrowError(source, ": database format version ", version, ", this silpose reads version ",
+               kFormatVersion, "; rebuild it with 'silpose build-db'");
+  }
+  uint64_t payload_size = 0;
+  std::memcpy(&payload_size, bytes.data() + 12, sizeof(payload_size));
+  const uint64_t expected_size = kHeaderSize + payload_size + kChecksumSize;
+  if (payload_size > bytes.size() || expected_size != bytes.size()) {
+    if (payload_size <= bytes.size() && bytes.size() < expected_size) {
+      ThrowError(source, ": truncated database (", bytes.size(), " of ", expected_size, " bytes)");
+    }
+    ThrowError(source, ": corrupt database (size field says ", expected_size,
+               " bytes, the file has ", bytes.size(), ")");
+  }
+  uint64_t stored_checksum = 0;
+  std::memcpy(&stored_checksum, bytes.data() + bytes.size() - kChecksumSize, kChecksumSize);
+  if (HashBytes(bytes.data(), bytes.size() - kChecksumSize) != stored_checksum) {
+    ThrowError(source, ": corrupt database (checksum mismatch)");
+  }
+
+  Reader in(bytes.substr(kHeaderSize, payload_size), source);
+  ViewDatabase database;
+  DatabaseParameters& parameters = database.parameters;
+  if (in.Get<uint32_t>("sampling method") != kSamplingFibonacci) in.Fail("unknown sampling method");
+  if (in.Get<uint32_t>("roll reference") != kRollReferenceZUp) in.Fail("unknown roll reference");
+  const auto num_views = in.Get<uint32_t>("view count");
+  if (num_views < 4 || num_views > kMaxViews) in.Fail("view count ", num_views, " out of range");
+  parameters.view_sphere.num_views = static_cast<int>(num_views);
+  parameters.view_sphere.neighbour_radius_factor = in.Get<double>("neighbour radius");
+  parameters.view_sphere.num_bins = static_cast<int>(in.Get<uint32_t>("bin count"));
+  parameters.view_sphere.kmeans_seed = in.Get<uint64_t>("k-means seed");
+  parameters.view_sphere.kmeans_max_iterations =
+      static_cast<int>(in.Get<uint32_t>("k-means iterations"));
+  parameters.render.resolution_px = static_cast<int>(in.Get<uint32_t>("resolution"));
+  parameters.render.distance_in_radii = in.Get<double>("camera distance");
+  parameters.render.fill_fraction = in.Get<double>("fill fraction");
+  const auto length = in.Get<uint32_t>("signature length");
+  parameters.signature.length = static_cast<int>(std::min<uint32_t>(length, 1u << 30));
+  parameters.signature.min_area_px = in.Get<double>("minimum area");
+  parameters.signature.circular_threshold = in.Get<double>("circularity threshold");
+  std::string error;
+  if (!parameters.Check(&error)) in.Fail("invalid parameters: ", error);
+
+  ViewSphere& sphere = database.sphere;
+  sphere.typical_spacing_rad = in.Get<double>("view spacing");
+  if (!(sphere.typical_spacing_rad > 0.0) || !std::isfinite(sphere.typical_spacing_rad)) {
+    in.Fail("view spacing ", sphere.typical_spacing_rad, " is not positive");
+  }
+  sphere.directions.resize(num_views);
+  for (auto& d : sphere.directions) {
+    d.x() = in.Get<double>("view directions");
+    d.y() = in.Get<double>("view directions");
+    d.z() = in.Get<double>("view directions");
+    if (!d.allFinite() || std::abs(d.norm() - 1.0) > 1e-6)
+      in.Fail("a view direction is not a unit vector");
+  }
+  const auto num_edges = in.Get<uint32_t>("neighbour count");
+  if (num_edges > static_cast<uint64_t>(num_views) * 64)
+    in.Fail("neighbour count ", num_edges, " out of range");
+  sphere.neighbour_offsets.resize(num_views + 1);
+  sphere.neighbour_indices.resize(num_edges);
+  in.GetArray<uint32_t>(sphere.neighbour_offsets, "neighbour offsets");
+  in.GetArray<uint32_t>(sphere.neighbour_indices, "neighbour indices");
+  if (sphere.neighbour_offsets.front() != 0 || sphere.neighbour_offsets.back() != num_edges) {
+    in.Fail("neighbour offsets do not span the neighbour list");
+  }
+  for (uint32_t v = 0; v < num_views; ++v) {
+    if (sphere.neighbour_offsets[v] > sphere.neighbour_offsets[v + 1])
+      in.Fail("neighbour offsets decrease");
+  }
+  for (uint32_t i : sphere.neighbour_indices) {
+    if (i >= num_views) in.Fail("neighbour index ", i, " out of range");
+  }
+  const auto num_bins = in.Get<uint32_t>("bin count");
+  if (static_cast<int>(num_bins) != parameters.view_sphere.num_bins) in.Fail("bin count mismatch");
+  sphere.bin_centres.resize(num_bins);
+  for (auto& c : sphere.bin_centres) {
+    c.x() = in.Get<double>("bin centres");
+    c.y() = in.Get<double>("bin centres");
+    c.z() = in.Get<double>("bin centres");
+    if (!c.allFinite()) in.Fail("a bin centre is not finite");
+  }
+  sphere.bin_of_view.resize(num_views);
+  in.GetArray<uint32_t>(sphere.bin_of_view, "bin labels");
+  for (uint32_t b : sphere.bin_of_view) {
+    if (b >= num_bins) in.Fail("bin label ", b, " out of range");
+  }
+
+  const auto num_models = in.Get<uint32_t>("model count");
+  if (num_models > kMaxModels) in.Fail("model count ", num_models, " out of range");
+  const size_t per_model_bytes =
+      static_cast<size_t>(num_views) * (21 + 4 * static_cast<size_t>(length));
+  if (static_cast<size_t>(num_models) * per_model_bytes > in.remaining()) {
+    in.Fail(num_models, " models of ", num_views, " views do not fit in the file");
+  }
+  std::set<std::string> names;
+  database.models.resize(num_models);
+  for (ModelViews& model : database.models) {
+    model.name = in.GetString("model name", 4096);
+    if (model.name.empty()) in.Fail("a model has an empty name");
+    if (!names.insert(model.name).second) in.Fail("model name '", model.name, "' appears twice");
+    model.source_path = in.GetString("model path", 1 << 16);
+    model.mesh_hash = in.Get<uint64_t>("mesh hash");
+    for (double& c : model.centre) c = in.Get<double>("model centre");
+    model.radius = in.Get<double>("model radius");
+    if (!(model.radius > 0.0) || !std::isfinite(model.radius))
+      in.Fail("model '", model.name, "' has radius ", model.radius);
+    model.num_vertices = in.Get<uint32_t>("vertex count");
+    model.num_triangles = in.Get<uint32_t>("triangle count");
+    model.views.resize(num_views);
+    for (ViewRecord& view : model.views) {
+      const auto status = in.Get<uint8_t>("view status");
+      if (status > static_cast<uint8_t>(SignatureStatus::kTooSmall))
+        in.Fail("view status ", int{status}, " unknown");
+      view.status = static_cast<SignatureStatus>(status);
+      view.flags = in.Get<uint32_t>("view flags");
+      view.mean_radius_px = in.Get<float>("view radius");
+      view.centroid_x_px = in.Get<float>("view centroid");
+      view.centroid_y_px = in.Get<float>("view centroid");
+      view.area_px = in.Get<float>("view area");
+      view.relative_std = in.Get<float>("view deviation");
+    }
+    model.signatures.resize(static_cast<size_t>(num_views) * length);
+    in.GetArray<float>(model.signatures, "signatures");
+    for (float r : model.signatures) {
+      if (!std::isfinite(r) || r < 0.0f)
+        in.Fail("model '", model.name, "' has an invalid signature value");
+    }
+  }
+  if (in.remaining() != 0) in.Fail(in.remaining(), " unexpected bytes after the last model");
+  return database;
+}
+
+}  // namespace silpose

@@ -1,0 +1,143 @@
+#include "silpose/match/circular_correlator.h"
+
+#include <Eigen/Core>
+#include <cmath>
+#include <numbers>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+
+double CorrelationPeak::RollDeg(int length) const {
+  double roll = 360.0 * static_cast<double>(shift_bins) / static_cast<double>(length);
+  if (roll > 180.0) roll -= 360.0;
+  return roll;
+}
+
+CircularCorrelator::CircularCorrelator(int length, FftBackend backend)
+    : length_(length),
+      fft_(RealFft::Create(length, backend)),
+      real_scratch_(static_cast<size_t>(length)),
+      complex_scratch_(static_cast<size_t>(length / 2 + 1)) {}
+
+void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectrum* spectrum,
+                                   bool weighted) {
+  if (static_cast<int>(radii.size()) != length_) {
+    ThrowError("signature has ", radii.size(), " values, the correlator expects ", length_);
+  }
+  double mean = 0.0;
+  for (float r : radii) mean += r;
+  mean /= length_;
+  double sum_squares = 0.0;
+  for (float r : radii) sum_squares += (r - mean) * (r - mean);
+  const size_t half = static_cast<size_t>(length_ / 2 + 1);
+  spectrum->coefficients.assign(half, {0.0f, 0.0f});
+  spectrum->magnitudes.assign(half, 0.0f);
+  // A signature whose variance is at float rounding level has no shape to correlate.
+  spectrum->has_variance = sum_squares > 1e-10 * (mean * mean + 1e-30) * length_;
+  if (!spectrum->has_variance) return;
+  // Unit norm and the 1/sqrt(M) of the inverse transform, folded into one scale.
+  const double scale = 1.0 / std::sqrt(sum_squares * length_);
+  for (size_t x = 0; x < radii.size(); ++x) {
+    real_scratch_[x] = static_cast<float>((radii[x] - mean) * scale);
+  }
+  fft_->Forward(real_scratch_.data(), spectrum->coefficients.data());
+  spectrum->coefficients[0] = {0.0f, 0.0f};  // exactly zero mean
+  for (size_t k = 0; k < half; ++k) {
+    const float weight = (!weighted || k == 0 || k == half - 1) ? 1.0f : 2.0f;
+    spectrum->magnitudes[k] = weight * std::abs(spectrum->coefficients[k]);
+  }
+}
+
+SignatureSpectrum CircularCorrelator::Transform(std::span<const float> radii, bool weighted) {
+  SignatureSpectrum spectrum;
+  Transform(radii, &spectrum, weighted);
+  return spectrum;
+}
+
+void CircularCorrelator::Correlate(const SignatureSpectrum& query,
+                                   const SignatureSpectrum& reference, std::span<float> out) {
+  SILPOSE_ASSERT(static_cast<int>(out.size()) == length_);
+  const size_t half = complex_scratch_.size();
+  SILPOSE_ASSERT(query.coefficients.size() == half && reference.coefficients.size() == half);
+  for (size_t k = 0; k < half; ++k) {
+    complex_scratch_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
+  }
+  fft_->Inverse(complex_scratch_.data(), out.data());
+}
+
+CorrelationPeak CircularCorrelator::Peak(const SignatureSpectrum& query,
+                                         const SignatureSpectrum& reference) {
+  Correlate(query, reference, real_scratch_);
+  const float* e = real_scratch_.data();
+  int best = 0;
+  for (int n = 1; n < length_; ++n) {
+    if (e[n] > e[best]) best = n;
+  }
+  const float before = e[(best + length_ - 1) % length_];
+  const float after = e[(best + 1) % length_];
+  const float peak = e[best];
+  const float curvature = before - 2.0f * peak + after;
+  float offset = 0.0f;
+  if (curvature < 0.0f) offset = std::clamp(0.5f * (before - after) / curvature, -0.5f, 0.5f);
+  float shift = static_cast<float>(best) + offset;
+  if (shift < 0.0f) shift += static_cast<float>(length_);
+  if (shift >= static_cast<float>(length_)) shift -= static_cast<float>(length_);
+  return {std::min(peak, 1.0f), shift};
+}
+
+float CircularCorrelator::ScoreAtShift(const SignatureSpectrum& query,
+                                       const SignatureSpectrum& reference,
+                                       double shift_bins) const {
+  // e(s) = sum_k w_k Re(conj(Q_k) D_k exp(2 pi i k s / M)) for real s (band-limited interpolation).
+  const size_t half = query.coefficients.size();
+  const double step = 2.0 * std::numbers::pi * shift_bins / length_;
+  double sum = 0.0;
+  for (size_t k = 0; k < half; ++k) {
+    const double weight = (k == 0 || k == half - 1) ? 1.0 : 2.0;
+    const std::complex<double> product = std::conj(std::complex<double>(query.coefficients[k])) *
+                                         std::complex<double>(reference.coefficients[k]);
+    const std::complex<double> phase = std::polar(1.0, step * static_cast<double>(k));
+    sum += weight * (product * phase).real();
+  }
+  return static_cast<float>(sum);
+}
+
+std::vector<double> CircularCorrelator::CorrelateDirect(std::span<const float> query,
+                                                        std::span<const float> reference) {
+  SILPOSE_ASSERT(query.size() == reference.size() && !query.empty());
+  const size_t m = query.size();
+  auto normalise = [m](std::span<const float> values) {
+    double mean = 0.0;
+    for (float v : values) mean += v;
+    mean /= static_cast<double>(m);
+    std::vector<double> out(m);
+    double norm = 0.0;
+    for (size_t i = 0; i < m; ++i) {
+      out[i] = values[i] - mean;
+      norm += out[i] * out[i];
+    }
+    norm = std::sqrt(norm);
+    for (double& v : out) v = norm > 0.0 ? v / norm : 0.0;
+    return out;
+  };
+  const std::vector<double> q = normalise(query);
+  const std::vector<double> d = normalise(reference);
+  std::vector<double> e(m, 0.0);
+  for (size_t n = 0; n < m; ++n) {
+    double sum = 0.0;
+    for (size_t x = 0; x < m; ++x) sum += q[x] * d[(x + n) % m];
+    e[n] = sum;
+  }
+  return e;
+}
+
+float CorrelationUpperBound(std::span<const float> weighted_magnitudes,
+                            std::span<const float> magnitudes) {
+  SILPOSE_ASSERT(weighted_magnitudes.size() == magnitudes.size());
+  const auto size = static_cast<Eigen::Index>(magnitudes.size());
+  return Eigen::Map<const Eigen::VectorXf>(weighted_magnitudes.data(), size)
+      .dot(Eigen::Map<const Eigen::VectorXf>(magnitudes.data(), size));
+}
+
+}  // namespace silpose

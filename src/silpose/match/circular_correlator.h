@@ -1,0 +1,80 @@
+#pragma once
+// Circular normalised cross-correlation of polar signatures (paper 4.2, equation 3), through FFTs.
+//
+// Each signature is made zero-mean and unit-norm, so for a query q and a reference d
+//   e(n) = sum_x q(x) d(x + n),  n = 0..M-1,
+// is Pearson's correlation coefficient of q with d shifted by n bins, in [-1, 1]. The similarity is
+// max_n e(n) and the roll is its argmax: a query seen at roll r equals the reference shifted by
+// r M / 360 bins (geometry/view_frame.h), so roll_deg = 360 * argmax / M. The argmax is refined
+// below one bin by a parabola through the peak and its two neighbours.
+//
+// In the frequency domain e = IDFT(conj(Q) D) / M. A cheap upper bound of max_n e(n), used to
+// prune the database search exactly, is sum_k |Q_k| |D_k| / M (triangle inequality).
+
+#include <complex>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "silpose/match/real_fft.h"
+
+namespace silpose {
+
+/// The spectrum of a normalised signature, ready to correlate. Built by CircularCorrelator.
+struct SignatureSpectrum {
+  /// M/2 + 1 coefficients of the zero-mean, unit-norm signature, scaled by 1/sqrt(M).
+  std::vector<std::complex<float>> coefficients;
+  /// |coefficients[k]|, weighted by how often bin k occurs in the full spectrum (1 for k = 0 and
+  /// k = M/2, 2 otherwise) when `weighted` was asked for; the dot product of a weighted and an
+  /// unweighted magnitude vector is the upper bound above.
+  std::vector<float> magnitudes;
+  /// False if the signature was constant (no variance): every correlation with it is 0.
+  bool has_variance = false;
+};
+
+struct CorrelationPeak {
+  /// max_n e(n), in [-1, 1].
+  float score = 0.0f;
+  /// argmax_n e(n), refined below one bin, in [0, M).
+  float shift_bins = 0.0f;
+  /// The roll the shift means, in degrees, in (-180, 180].
+  double RollDeg(int length) const;
+};
+
+/// Correlates signatures of one length M. Not thread-safe (scratch buffers): one per thread.
+class CircularCorrelator {
+ public:
+  explicit CircularCorrelator(int length, FftBackend backend = FftBackend::kDefault);
+
+  int length() const { return length_; }
+
+  /// Normalises `radii` (M values) and transforms it. `weighted`: see SignatureSpectrum.
+  void Transform(std::span<const float> radii, SignatureSpectrum* spectrum, bool weighted = false);
+  SignatureSpectrum Transform(std::span<const float> radii, bool weighted = false);
+
+  /// The whole correlation e(n), n = 0..M-1, into `out` (M values).
+  void Correlate(const SignatureSpectrum& query, const SignatureSpectrum& reference,
+                 std::span<float> out);
+  /// max and argmax of e(n).
+  CorrelationPeak Peak(const SignatureSpectrum& query, const SignatureSpectrum& reference);
+
+  /// e(n) at one shift, O(M), from the spectra (no FFT). Used to score a known roll.
+  float ScoreAtShift(const SignatureSpectrum& query, const SignatureSpectrum& reference,
+                     double shift_bins) const;
+
+  /// Reference implementation for tests: e(n) by the definition, O(M^2), in double precision.
+  static std::vector<double> CorrelateDirect(std::span<const float> query,
+                                             std::span<const float> reference);
+
+ private:
+  int length_;
+  std::unique_ptr<RealFft> fft_;
+  std::vector<float> real_scratch_;
+  std::vector<std::complex<float>> complex_scratch_;
+};
+
+/// Upper bound of max_n e(n): dot product of a weighted and an unweighted magnitude vector.
+float CorrelationUpperBound(std::span<const float> weighted_magnitudes,
+                            std::span<const float> magnitudes);
+
+}  // namespace silpose

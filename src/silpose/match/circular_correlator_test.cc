@@ -1,0 +1,142 @@
+#include "silpose/match/circular_correlator.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+// A smooth random periodic signature: a few random Fourier terms around 1, sampled at `length`
+// points, with its argument shifted by `shift_bins` (may be fractional).
+std::vector<float> SmoothSignature(uint32_t seed, int length, double shift_bins = 0.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> amplitude(-0.2, 0.2);
+  std::vector<std::pair<double, double>> terms;
+  for (int k = 1; k <= 12; ++k) terms.emplace_back(amplitude(rng) / k, amplitude(rng) / k);
+  std::vector<float> radii(static_cast<size_t>(length));
+  for (int x = 0; x < length; ++x) {
+    const double t = 2.0 * std::numbers::pi * (x + shift_bins) / length;
+    double r = 1.0;
+    for (size_t k = 0; k < terms.size(); ++k) {
+      r += terms[k].first * std::cos(static_cast<double>(k + 1) * t) +
+           terms[k].second * std::sin(static_cast<double>(k + 1) * t);
+    }
+    radii[static_cast<size_t>(x)] = static_cast<float>(r);
+  }
+  return radii;
+}
+
+class CorrelatorTest : public ::testing::TestWithParam<FftBackend> {};
+
+TEST_P(CorrelatorTest, FftCorrelationEqualsTheDefinition) {
+  for (int length : {16, 100, 1000, 1024}) {
+    CircularCorrelator correlator(length, GetParam());
+    const std::vector<float> a = SmoothSignature(1, length);
+    std::vector<float> b = SmoothSignature(2, length);
+    std::mt19937 rng(3);
+    std::normal_distribution<float> noise(0.0f, 0.05f);
+    for (float& r : b) r += noise(rng);  // not band-limited
+    std::vector<float> fast(static_cast<size_t>(length));
+    correlator.Correlate(correlator.Transform(a), correlator.Transform(b), fast);
+    const std::vector<double> slow = CircularCorrelator::CorrelateDirect(a, b);
+    for (int n = 0; n < length; ++n) {
+      EXPECT_NEAR(fast[static_cast<size_t>(n)], slow[static_cast<size_t>(n)], 2e-5)
+          << "length " << length << " shift " << n;
+    }
+  }
+}
+
+TEST_P(CorrelatorTest, ShiftingBySomeBinsMovesThePeakBySoManyBins) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum reference = correlator.Transform(SmoothSignature(5, length));
+  for (int shift : {0, 1, 2, 250, 499, 500, 501, 999}) {
+    const CorrelationPeak peak =
+        correlator.Peak(correlator.Transform(SmoothSignature(5, length, shift)), reference);
+    EXPECT_NEAR(peak.score, 1.0f, 1e-5f);
+    EXPECT_NEAR(peak.shift_bins, shift, 1e-3) << shift;
+    EXPECT_NEAR(peak.RollDeg(length), shift <= 500 ? shift * 0.36 : (shift - 1000) * 0.36, 1e-3);
+  }
+}
+
+TEST_P(CorrelatorTest, FractionalShiftsAreRefinedBelowOneBin) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum reference = correlator.Transform(SmoothSignature(9, length));
+  for (double shift : {0.25, 10.5, 700.8}) {
+    const CorrelationPeak peak =
+        correlator.Peak(correlator.Transform(SmoothSignature(9, length, shift)), reference);
+    EXPECT_NEAR(peak.shift_bins, shift, 0.1) << shift;
+    EXPECT_GT(peak.score, 0.999f);
+  }
+}
+
+TEST_P(CorrelatorTest, ScoreIsInvariantToScaleAndOffsetAndBoundedByOne) {
+  const int length = 360;
+  CircularCorrelator correlator(length, GetParam());
+  const std::vector<float> a = SmoothSignature(11, length);
+  std::vector<float> scaled = a;
+  for (float& r : scaled) r = 3.5f * r + 2.0f;
+  EXPECT_NEAR(correlator.Peak(correlator.Transform(scaled), correlator.Transform(a)).score, 1.0f,
+              1e-5f);
+  std::vector<float> inverted = a;
+  for (float& r : inverted) r = 2.0f - r;
+  const float score =
+      correlator.Peak(correlator.Transform(inverted), correlator.Transform(a)).score;
+  EXPECT_LT(score, 0.9f);
+  EXPECT_GE(score, -1.0f);
+}
+
+TEST_P(CorrelatorTest, UpperBoundIsNeverBelowThePeak) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  for (uint32_t seed = 0; seed < 50; ++seed) {
+    const SignatureSpectrum q = correlator.Transform(SmoothSignature(seed, length), true);
+    const SignatureSpectrum d = correlator.Transform(SmoothSignature(seed + 100, length));
+    const float peak = correlator.Peak(q, d).score;
+    EXPECT_GE(CorrelationUpperBound(q.magnitudes, d.magnitudes) + 1e-5f, peak);
+  }
+  // Equality for a shifted copy: the bound is tight where it matters.
+  const SignatureSpectrum q = correlator.Transform(SmoothSignature(1, length, 77), true);
+  const SignatureSpectrum d = correlator.Transform(SmoothSignature(1, length));
+  EXPECT_NEAR(CorrelationUpperBound(q.magnitudes, d.magnitudes), 1.0f, 1e-4f);
+}
+
+TEST_P(CorrelatorTest, ScoreAtShiftAgreesWithTheCorrelationAtIntegerShifts) {
+  const int length = 200;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum q = correlator.Transform(SmoothSignature(21, length));
+  const SignatureSpectrum d = correlator.Transform(SmoothSignature(22, length));
+  std::vector<float> e(static_cast<size_t>(length));
+  correlator.Correlate(q, d, e);
+  for (int n = 0; n < length; n += 7) {
+    EXPECT_NEAR(correlator.ScoreAtShift(q, d, n), e[static_cast<size_t>(n)], 1e-5) << n;
+  }
+}
+
+TEST_P(CorrelatorTest, ConstantSignaturesCorrelateToZero) {
+  const int length = 100;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum flat = correlator.Transform(std::vector<float>(100, 1.0f));
+  EXPECT_FALSE(flat.has_variance);
+  const CorrelationPeak peak = correlator.Peak(flat, correlator.Transform(SmoothSignature(1, 100)));
+  EXPECT_EQ(peak.score, 0.0f);
+}
+
+TEST_P(CorrelatorTest, WrongLengthIsAnError) {
+  CircularCorrelator correlator(100, GetParam());
+  EXPECT_THROW(correlator.Transform(std::vector<float>(99, 1.0f)), Error);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, CorrelatorTest, ::testing::ValuesIn(AvailableFftBackends()),
+                         [](const auto& info) { return std::string(ToString(info.param)); });
+
+TEST(RealFft, OddLengthIsAnError) { EXPECT_THROW(RealFft::Create(999), Error); }
+
+}  // namespace
+}  // namespace silpose

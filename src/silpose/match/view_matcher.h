@@ -1,0 +1,95 @@
+#pragma once
+// Single-frame matching against the whole view database (the paper's brute-force baseline,
+// section 5.1): the query signature is correlated with every view of every model; the best
+// (object, view, roll, score) candidates come back.
+//
+// The default search is exact but pruned: every view first gets the cheap upper bound of its
+// correlation peak (circular_correlator.h); views are then correlated in decreasing order of bound
+// until the K-th best score found is at least the next bound, so the result equals the exhaustive
+// search. `exhaustive` correlates every view (for checking and benchmarking).
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "silpose/database/view_database.h"
+#include "silpose/match/circular_correlator.h"
+
+namespace silpose {
+
+struct MatchOptions {
+  /// Number of candidates returned, best first (>= 1).
+  int top_k = 5;
+  /// Correlate every view instead of pruning by the bound (same result, slower).
+  bool exhaustive = false;
+  /// Restrict the search to these model indices; empty = all models.
+  std::vector<int> models;
+
+  bool Check(std::string* error = nullptr) const;
+};
+
+struct MatchCandidate {
+  int model = -1;
+  int view = -1;
+  /// Camera roll in degrees, (-180, 180] (geometry/view_frame.h).
+  double roll_deg = 0.0;
+  /// Correlation peak in [-1, 1].
+  float score = 0.0f;
+};
+
+/// Statistics of the last search.
+struct MatchStats {
+  int views_bounded = 0;
+  int views_correlated = 0;
+};
+
+/// Holds the spectra of every database view. Building it costs one FFT per view; searching is
+/// read-only on it but uses per-object scratch space, so use one ViewMatcher per thread (they can
+/// share one ViewSpectra).
+class ViewSpectra {
+ public:
+  ViewSpectra(const ViewDatabase& database, FftBackend backend = FftBackend::kDefault);
+  const SignatureSpectrum& Get(int model, int view) const {
+    return spectra_[static_cast<size_t>(model) * static_cast<size_t>(num_views_) +
+                    static_cast<size_t>(view)];
+  }
+  /// False for a view whose silhouette could not be described when the database was built.
+  bool Usable(int model, int view) const {
+    return usable_[static_cast<size_t>(model) * static_cast<size_t>(num_views_) +
+                   static_cast<size_t>(view)] != 0;
+  }
+  int num_models() const { return num_models_; }
+  int num_views() const { return num_views_; }
+  int signature_length() const { return signature_length_; }
+
+ private:
+  int num_models_;
+  int num_views_;
+  int signature_length_;
+  std::vector<SignatureSpectrum> spectra_;
+  std::vector<uint8_t> usable_;
+};
+
+class ViewMatcher {
+ public:
+  explicit ViewMatcher(const ViewSpectra& spectra, FftBackend backend = FftBackend::kDefault);
+
+  /// Best candidates for a signature of the database's length (PolarSignature::radii), best first.
+  /// Throws silpose::Error for a signature of another length or invalid options.
+  std::vector<MatchCandidate> Match(std::span<const float> radii, const MatchOptions& options = {});
+
+  /// Correlation peak of a signature against one view.
+  CorrelationPeak Score(const SignatureSpectrum& query, int model, int view);
+
+  CircularCorrelator& correlator() { return correlator_; }
+  const MatchStats& last_stats() const { return stats_; }
+
+ private:
+  const ViewSpectra& spectra_;
+  CircularCorrelator correlator_;
+  SignatureSpectrum query_;
+  MatchStats stats_;
+};
+
+}  // namespace silpose

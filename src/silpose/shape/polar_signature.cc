@@ -1,0 +1,264 @@
+#include "silpose/shape/polar_signature.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+// Area centre of gravity of a closed polygon (shoelace formula); returns the signed area.
+double PolygonCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid) {
+  double twice_area = 0.0;
+  Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
+  const size_t n = polygon.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& p = polygon[i];
+    const Eigen::Vector2d& q = polygon[(i + 1) % n];
+    const double cross = Cross(p, q);
+    twice_area += cross;
+    weighted += cross * (p + q);
+  }
+  if (std::abs(twice_area) < 1e-12) {
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const auto& p : polygon) mean += p;
+    *centroid = mean / static_cast<double>(std::max<size_t>(n, 1));
+    return 0.0;
+  }
+  *centroid = weighted / (3.0 * twice_area);
+  return 0.5 * twice_area;
+}
+
+}  // namespace
+
+std::string DescribeSilhouetteFlags(uint32_t flags) {
+  static constexpr std::pair<uint32_t, const char*> kNames[] = {
+      {kSilhouetteHasHoles, "holes"},
+      {kSilhouetteSeveralComponents, "several-components"},
+      {kSilhouetteCentroidOutside, "centroid-outside"},
+      {kSilhouetteTouchesBorder, "touches-border"},
+      {kSilhouetteNearlyCircular, "nearly-circular"},
+  };
+  std::string text;
+  for (const auto& [bit, name] : kNames) {
+    if ((flags & bit) == 0) continue;
+    if (!text.empty()) text += ", ";
+    text += name;
+  }
+  return text.empty() ? "none" : text;
+}
+
+const char* ToString(SignatureStatus status) {
+  switch (status) {
+    case SignatureStatus::kOk:
+      return "ok";
+    case SignatureStatus::kEmpty:
+      return "empty";
+    case SignatureStatus::kTooSmall:
+      return "too-small";
+  }
+  return "unknown";
+}
+
+bool SignatureOptions::Check(std::string* error) const {
+  std::ostringstream message;
+  if (length < 16 || length > 65536 || length % 2 != 0) {
+    message << "signature length must be even and in [16, 65536], got " << length;
+  } else if (!(min_area_px >= 1.0) || !std::isfinite(min_area_px)) {
+    message << "minimum silhouette area must be >= 1 pixel, got " << min_area_px;
+  } else if (!(circular_threshold >= 0.0) || !std::isfinite(circular_threshold)) {
+    message << "circularity threshold must be >= 0, got " << circular_threshold;
+  } else if (!nearest_to_px.allFinite()) {
+    message << "reference point for the nearest component must be finite";
+  } else {
+    return true;
+  }
+  if (error != nullptr) *error = message.str();
+  return false;
+}
+
+std::string SignatureResult::Describe() const {
+  std::ostringstream text;
+  text << "silhouette " << ToString(status);
+  if (status != SignatureStatus::kEmpty) {
+    text << ", area " << static_cast<long long>(std::lround(signature.area_px)) << " px";
+  }
+  text << ", flags: " << DescribeSilhouetteFlags(flags);
+  return text.str();
+}
+
+std::vector<float> StarConvexRadii(std::span<const Eigen::Vector2d> polygon,
+                                   const Eigen::Vector2d& centre, int length, int* missed) {
+  SILPOSE_ASSERT(length > 0);
+  const auto m = static_cast<size_t>(length);
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  std::vector<double> radius(m, kInfinity);
+  std::vector<Eigen::Vector2d> directions(m);
+  for (size_t k = 0; k < m; ++k) {
+    const double angle = kTwoPi * static_cast<double>(k) / static_cast<double>(length);
+    directions[k] = {std::cos(angle), std::sin(angle)};
+  }
+  const double bins_per_radian = static_cast<double>(length) / kTwoPi;
+  const size_t n = polygon.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d a = polygon[i] - centre;
+    const Eigen::Vector2d b = polygon[(i + 1) % n] - centre;
+    const Eigen::Vector2d edge = b - a;
+    if (edge.squaredNorm() == 0.0) continue;
+    const double angle_a = std::atan2(a.y(), a.x());
+    double sweep = std::atan2(b.y(), b.x()) - angle_a;
+    if (sweep > std::numbers::pi) sweep -= kTwoPi;
+    if (sweep < -std::numbers::pi) sweep += kTwoPi;
+    // An edge through the centre itself sweeps half a turn: it hides nothing behind it.
+    if (std::abs(sweep) >= std::numbers::pi - 1e-12) continue;
+    const double low = angle_a + std::min(0.0, sweep);
+    const double high = angle_a + std::max(0.0, sweep);
+    const auto first = static_cast<long>(std::ceil(low * bins_per_radian - 1e-9));
+    const auto last = static_cast<long>(std::floor(high * bins_per_radian + 1e-9));
+    for (long k = first; k <= last; ++k) {
+      const auto bin = static_cast<size_t>(((k % length) + length) % length);
+      const Eigen::Vector2d& u = directions[bin];
+      const double denominator = Cross(u, edge);
+      double t;
+      if (std::abs(denominator) > 1e-12) {
+        t = Cross(a, edge) / denominator;
+      } else {  // ray along the edge: the nearer end point
+        t = std::min(a.dot(u), b.dot(u));
+      }
+      if (t > 0.0 && t < radius[bin]) radius[bin] = t;
+    }
+  }
+  std::vector<float> result(m);
+  int num_missed = 0;
+  for (size_t k = 0; k < m; ++k) {
+    if (radius[k] == kInfinity) {
+      ++num_missed;
+      result[k] = 0.0f;
+    } else {
+      result[k] = static_cast<float>(radius[k]);
+    }
+  }
+  if (missed != nullptr) *missed = num_missed;
+  return result;
+}
+
+SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& options) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError("invalid signature options: ", error);
+  if (mask.empty()) ThrowError("mask is empty (0 x 0 pixels)");
+  if (mask.type() != CV_8UC1) {
+    ThrowError("mask must be 8-bit single-channel (CV_8UC1), got type ", mask.type(), " with ",
+               mask.channels(), " channel(s)");
+  }
+  SignatureResult result;
+  std::vector<std::vector<cv::Point>> contours;
+  std::vector<cv::Vec4i> hierarchy;
+  cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+
+  // Outer contours have no parent in the two-level hierarchy of RETR_CCOMP.
+  std::vector<int> outer;
+  std::vector<double> outer_area;
+  std::vector<double> outer_enclosed;
+  std::vector<Eigen::Vector2d> outer_centroid;
+  for (int i = 0; i < static_cast<int>(contours.size()); ++i) {
+    if (hierarchy[static_cast<size_t>(i)][3] >= 0) continue;
+    std::vector<Eigen::Vector2d> polygon;
+    polygon.reserve(contours[static_cast<size_t>(i)].size());
+    for (const auto& p : contours[static_cast<size_t>(i)]) polygon.emplace_back(p.x, p.y);
+    Eigen::Vector2d centroid;
+    const double enclosed = std::abs(PolygonCentroid(polygon, &centroid));
+    outer.push_back(i);
+    outer_enclosed.push_back(enclosed);
+    // The contour runs through boundary pixel centres; the pixels' own outline encloses about half
+    // a pixel more all around, which makes this close to the component's pixel count.
+    outer_area.push_back(enclosed + 0.5 * cv::arcLength(contours[static_cast<size_t>(i)], true) +
+                         1.0);
+    outer_centroid.push_back(centroid);
+  }
+  if (outer.empty()) return result;  // kEmpty
+
+  size_t chosen = 0;
+  for (size_t j = 1; j < outer.size(); ++j) {
+    if (options.component == ComponentChoice::kLargest) {
+      if (outer_area[j] > outer_area[chosen]) chosen = j;
+    } else if ((outer_centroid[j] - options.nearest_to_px).squaredNorm() <
+               (outer_centroid[chosen] - options.nearest_to_px).squaredNorm()) {
+      chosen = j;
+    }
+  }
+  const int chosen_index = outer[chosen];
+  const auto& contour = contours[static_cast<size_t>(chosen_index)];
+  PolarSignature& signature = result.signature;
+  signature.area_px = outer_area[chosen];
+  signature.centroid_px = outer_centroid[chosen];
+
+  for (size_t j = 0; j < outer.size(); ++j) {
+    if (outer_area[j] >= 0.01 * outer_area[chosen]) ++result.num_components;
+  }
+  if (result.num_components > 1) result.flags |= kSilhouetteSeveralComponents;
+  for (int child = hierarchy[static_cast<size_t>(chosen_index)][2]; child >= 0;
+       child = hierarchy[static_cast<size_t>(child)][0]) {
+    result.hole_area_px += cv::contourArea(contours[static_cast<size_t>(child)]);
+  }
+  if (hierarchy[static_cast<size_t>(chosen_index)][2] >= 0) result.flags |= kSilhouetteHasHoles;
+  for (const auto& p : contour) {
+    if (p.x == 0 || p.y == 0 || p.x == mask.cols - 1 || p.y == mask.rows - 1) {
+      result.flags |= kSilhouetteTouchesBorder;
+      break;
+    }
+  }
+  // Lines and specks enclose (almost) nothing: their outline says nothing about the object.
+  if (outer_enclosed[chosen] < options.min_area_px) {
+    result.status = SignatureStatus::kTooSmall;
+    return result;
+  }
+  if (cv::pointPolygonTest(contour,
+                           cv::Point2f(static_cast<float>(signature.centroid_px.x()),
+                                       static_cast<float>(signature.centroid_px.y())),
+                           false) < 0) {
+    result.flags |= kSilhouetteCentroidOutside;
+  }
+
+  std::vector<Eigen::Vector2d> polygon;
+  polygon.reserve(contour.size());
+  for (const auto& p : contour) polygon.emplace_back(p.x, p.y);
+  signature.radii =
+      StarConvexRadii(polygon, signature.centroid_px, options.length, &signature.missed_directions);
+  // The contour runs through the centres of the boundary pixels; the outline of the pixels
+  // themselves lies half a pixel further out. Adding it keeps the shape equal across scales.
+  double sum = 0.0;
+  for (float& r : signature.radii) {
+    if (r > 0.0f) r += 0.5f;
+    sum += r;
+  }
+  const double mean = sum / static_cast<double>(options.length);
+  if (!(mean > 0.0)) {
+    result.status = SignatureStatus::kTooSmall;
+    return result;
+  }
+  signature.mean_radius_px = mean;
+  double sum_squares = 0.0;
+  for (float& r : signature.radii) {
+    r = static_cast<float>(r / mean);
+    sum_squares += (r - 1.0) * (r - 1.0);
+  }
+  signature.relative_std = std::sqrt(sum_squares / static_cast<double>(options.length));
+  if (signature.relative_std < options.circular_threshold) {
+    result.flags |= kSilhouetteNearlyCircular;
+  }
+  result.status = SignatureStatus::kOk;
+  return result;
+}
+
+}  // namespace silpose

@@ -1,0 +1,297 @@
+#include "silpose/shape/polar_signature.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+
+#include "silpose/geometry/view_frame.h"
+#include "silpose/match/circular_correlator.h"
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// A concave, asymmetric silhouette whose outline is partly hidden from its centre: a disc (the
+// body) with a bump, and a thick arc (a hook) around it joined to the body by a bar, so rays
+// leaving the body first cross the body's edge and the arc behind it is hidden (paper Fig. 3 c, d).
+// `rotation_deg` turns the content as a positive camera roll would (image angle phi -> phi - r).
+cv::Mat HookShape(double scale, double rotation_deg, cv::Size size) {
+  cv::Mat mask = cv::Mat::zeros(size, CV_8UC1);
+  const cv::Point2d c(0.5 * (size.width - 1), 0.5 * (size.height - 1));
+  auto at = [&](double radius, double angle_deg) {
+    const double a = (angle_deg - rotation_deg) * kPi / 180.0;
+    return cv::Point(static_cast<int>(std::lround(c.x + scale * radius * std::cos(a))),
+                     static_cast<int>(std::lround(c.y + scale * radius * std::sin(a))));
+  };
+  const cv::Point centre(static_cast<int>(std::lround(c.x)), static_cast<int>(std::lround(c.y)));
+  const auto radius = [scale](double r) { return static_cast<int>(std::lround(scale * r)); };
+  cv::circle(mask, centre, radius(0.55), cv::Scalar(255), cv::FILLED);
+  cv::circle(mask, at(0.55, 150.0), radius(0.2), cv::Scalar(255), cv::FILLED);
+  cv::ellipse(mask, centre, {radius(0.95), radius(0.95)}, -rotation_deg, -100.0, 60.0,
+              cv::Scalar(255), radius(0.16));
+  cv::line(mask, at(0.3, -100.0), at(0.95, -100.0), cv::Scalar(255), radius(0.16));
+  return mask;
+}
+
+// The naive polar signature the paper warns about (its Fig. 3 a, b): every contour point in polar
+// form, sorted by angle and resampled to M bins by linear interpolation (no star-convex selection).
+std::vector<float> NaivePolarSignature(const cv::Mat& mask, int length) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  const auto& contour = *std::max_element(
+      contours.begin(), contours.end(),
+      [](const auto& a, const auto& b) { return cv::contourArea(a) < cv::contourArea(b); });
+  const cv::Moments m = cv::moments(contour);
+  const double cx = m.m10 / m.m00;
+  const double cy = m.m01 / m.m00;
+  std::vector<std::pair<double, double>> polar;
+  for (const auto& p : contour) {
+    double angle = std::atan2(p.y - cy, p.x - cx);
+    if (angle < 0) angle += 2 * kPi;
+    polar.emplace_back(angle, std::hypot(p.x - cx, p.y - cy));
+  }
+  std::sort(polar.begin(), polar.end());
+  std::vector<float> radii(static_cast<size_t>(length));
+  size_t j = 0;
+  for (int k = 0; k < length; ++k) {
+    const double angle = 2 * kPi * k / length;
+    while (j + 1 < polar.size() && polar[j + 1].first < angle) ++j;
+    const auto& a = polar[j];
+    const auto& b = polar[(j + 1) % polar.size()];
+    double span = b.first - a.first;
+    if (span <= 0) span += 2 * kPi;
+    double offset = angle - a.first;
+    if (offset < 0) offset += 2 * kPi;
+    const double w = std::clamp(offset / span, 0.0, 1.0);
+    radii[static_cast<size_t>(k)] = static_cast<float>((1 - w) * a.second + w * b.second);
+  }
+  double mean = 0;
+  for (float r : radii) mean += r;
+  mean /= length;
+  for (float& r : radii) r = static_cast<float>(r / mean);
+  return radii;
+}
+
+// Largest absolute difference between `reference` and `query` after aligning query by the
+// correlation peak (the paper's difference plots, Fig. 3 e, f).
+double AlignedMaxDifference(std::span<const float> reference, std::span<const float> query,
+                            double* roll_deg) {
+  const int m = static_cast<int>(reference.size());
+  CircularCorrelator correlator(m);
+  const CorrelationPeak peak =
+      correlator.Peak(correlator.Transform(query), correlator.Transform(reference));
+  *roll_deg = peak.RollDeg(m);
+  const int shift = static_cast<int>(std::lround(peak.shift_bins)) % m;
+  double worst = 0.0;
+  for (int x = 0; x < m; ++x) {
+    worst = std::max(worst, std::abs(static_cast<double>(query[static_cast<size_t>(x)]) -
+                                     reference[static_cast<size_t>((x + shift) % m)]));
+  }
+  return worst;
+}
+
+TEST(PolarSignature, DiscHasConstantRadiiAndIsReportedNearlyCircular) {
+  cv::Mat mask = cv::Mat::zeros(300, 300, CV_8UC1);
+  cv::circle(mask, {150, 140}, 100, cv::Scalar(255), cv::FILLED);
+  const SignatureResult result = ExtractSignature(mask);
+  ASSERT_TRUE(result.ok()) << result.Describe();
+  const PolarSignature& s = result.signature;
+  EXPECT_NEAR(s.centroid_px.x(), 150.0, 0.05);
+  EXPECT_NEAR(s.centroid_px.y(), 140.0, 0.05);
+  EXPECT_NEAR(s.mean_radius_px, 100.5, 0.6);  // pixel outline of a radius-100 disc
+  EXPECT_NEAR(s.area_px, kPi * 100 * 100, 0.02 * kPi * 100 * 100);
+  ASSERT_EQ(s.radii.size(), 1000u);
+  for (float r : s.radii) EXPECT_NEAR(r, 1.0, 0.01);
+  EXPECT_TRUE(result.flags & kSilhouetteNearlyCircular);
+  EXPECT_EQ(result.flags & ~kSilhouetteNearlyCircular, 0u) << DescribeSilhouetteFlags(result.flags);
+}
+
+TEST(PolarSignature, SquareMatchesTheAnalyticStarConvexRadii) {
+  // Square polygon of half-size a centred at the origin: r(phi) = a / max(|cos|, |sin|).
+  const double a = 50.0;
+  const std::vector<Eigen::Vector2d> square = {{-a, -a}, {a, -a}, {a, a}, {-a, a}};
+  int missed = -1;
+  const std::vector<float> radii = StarConvexRadii(square, {0, 0}, 360, &missed);
+  EXPECT_EQ(missed, 0);
+  for (int k = 0; k < 360; ++k) {
+    const double phi = 2 * kPi * k / 360;
+    const double expected = a / std::max(std::abs(std::cos(phi)), std::abs(std::sin(phi)));
+    EXPECT_NEAR(radii[static_cast<size_t>(k)], expected, 1e-3 * expected) << "bin " << k;
+  }
+}
+
+TEST(PolarSignature, RadiiStopAtTheFirstCrossingOfAConcaveOutline) {
+  const cv::Mat mask = HookShape(100.0, 0.0, {260, 260});
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  ASSERT_EQ(contours.size(), 1u);
+  std::vector<Eigen::Vector2d> polygon;
+  for (const auto& p : contours[0]) polygon.emplace_back(p.x - 129.5, p.y - 129.5);
+  const std::vector<float> radii = StarConvexRadii(polygon, {0, 0}, 1000);
+  std::vector<cv::Point2f> contour;
+  for (const auto& p : polygon)
+    contour.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  int bins_hiding_outline = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const double phi = 2 * kPi * k / 1000;
+    const double r = radii[static_cast<size_t>(k)];
+    ASSERT_GT(r, 0.0);
+    // Everything between the centre and the crossing is inside the shape (star-convex part) ...
+    for (double f = 0.02; f < 0.98; f += 0.02) {
+      const cv::Point2f p(static_cast<float>(f * r * std::cos(phi)),
+                          static_cast<float>(f * r * std::sin(phi)));
+      ASSERT_GE(cv::pointPolygonTest(contour, p, false), 0) << "bin " << k << " fraction " << f;
+    }
+    // ... and further out along some rays the outline comes back: those parts are hidden.
+    for (double f = 1.05; f < 2.5; f += 0.05) {
+      const cv::Point2f p(static_cast<float>(f * r * std::cos(phi)),
+                          static_cast<float>(f * r * std::sin(phi)));
+      if (cv::pointPolygonTest(contour, p, false) > 0) {
+        ++bins_hiding_outline;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(bins_hiding_outline, 5) << "the test shape should have a hidden concavity";
+}
+
+// Paper Fig. 3: a concave shape and its rotated copy. With the star-convex selection the aligned
+// signatures differ only by pixel noise; the naive polar resampling shows large error peaks.
+TEST(PolarSignature, PaperFigure3RotatedConcaveShapeAlignsWithoutErrorPeaks) {
+  const cv::Size size(400, 400);
+  const cv::Mat original = HookShape(150.0, 0.0, size);
+  for (double rotation : {37.0, 100.0, -145.0}) {
+    const cv::Mat rotated = HookShape(150.0, rotation, size);
+    const SignatureResult a = ExtractSignature(original);
+    const SignatureResult b = ExtractSignature(rotated);
+    ASSERT_TRUE(a.ok() && b.ok());
+    double roll = 0.0;
+    const double star_error = AlignedMaxDifference(a.signature.radii, b.signature.radii, &roll);
+    EXPECT_NEAR(WrapDegrees(roll - rotation), 0.0, 0.72) << "rotation " << rotation;
+    double naive_roll = 0.0;
+    const double naive_error = AlignedMaxDifference(
+        NaivePolarSignature(original, 1000), NaivePolarSignature(rotated, 1000), &naive_roll);
+    std::cout << "rotation " << rotation << ": star-convex max error " << star_error << ", naive "
+              << naive_error << "\n";
+    EXPECT_LT(star_error, 0.15) << "rotation " << rotation;
+    EXPECT_GT(naive_error, 4.0 * star_error) << "rotation " << rotation;
+  }
+}
+
+TEST(PolarSignature, RollingTheSilhouetteShiftsTheSignature) {
+  const cv::Size size(400, 400);
+  const SignatureResult a = ExtractSignature(HookShape(150.0, 0.0, size));
+  ASSERT_TRUE(a.ok());
+  CircularCorrelator correlator(1000);
+  const SignatureSpectrum reference = correlator.Transform(a.signature.radii);
+  for (double rotation : {0.0, 0.36, 10.0, 90.0, 179.0, -60.0}) {
+    const SignatureResult b = ExtractSignature(HookShape(150.0, rotation, size));
+    ASSERT_TRUE(b.ok());
+    const CorrelationPeak peak =
+        correlator.Peak(correlator.Transform(b.signature.radii), reference);
+    EXPECT_GT(peak.score, 0.99);
+    EXPECT_NEAR(WrapDegrees(peak.RollDeg(1000) - rotation), 0.0, 0.72) << "2 bins";
+  }
+}
+
+TEST(PolarSignature, ScalingTheSilhouetteKeepsTheSignature) {
+  const SignatureResult large = ExtractSignature(HookShape(200.0, 0.0, {500, 500}));
+  const SignatureResult small = ExtractSignature(HookShape(50.0, 0.0, {125, 125}));
+  ASSERT_TRUE(large.ok() && small.ok());
+  EXPECT_NEAR(large.signature.mean_radius_px / small.signature.mean_radius_px, 4.0, 0.1);
+  CircularCorrelator correlator(1000);
+  const CorrelationPeak peak = correlator.Peak(correlator.Transform(small.signature.radii),
+                                               correlator.Transform(large.signature.radii));
+  EXPECT_GT(peak.score, 0.99);
+  EXPECT_NEAR(WrapDegrees(peak.RollDeg(1000)), 0.0, 0.72);
+}
+
+TEST(PolarSignature, HolesAreIgnoredAndReported) {
+  cv::Mat solid = cv::Mat::zeros(200, 200, CV_8UC1);
+  cv::ellipse(solid, {100, 100}, {80, 40}, 20, 0, 360, cv::Scalar(255), cv::FILLED);
+  cv::Mat holed = solid.clone();
+  cv::circle(holed, {100, 100}, 15, cv::Scalar(0), cv::FILLED);
+  const SignatureResult a = ExtractSignature(solid);
+  const SignatureResult b = ExtractSignature(holed);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_FALSE(a.flags & kSilhouetteHasHoles);
+  EXPECT_TRUE(b.flags & kSilhouetteHasHoles);
+  EXPECT_NEAR(b.hole_area_px, kPi * 15 * 15, 0.1 * kPi * 15 * 15);
+  EXPECT_EQ(a.signature.radii, b.signature.radii);
+}
+
+TEST(PolarSignature, SeveralComponentsUseTheLargestOrTheNearest) {
+  cv::Mat mask = cv::Mat::zeros(200, 300, CV_8UC1);
+  cv::rectangle(mask, cv::Rect(20, 20, 100, 60), cv::Scalar(255), cv::FILLED);  // large
+  cv::circle(mask, {230, 140}, 30, cv::Scalar(255), cv::FILLED);                // smaller
+  SignatureResult largest = ExtractSignature(mask);
+  ASSERT_TRUE(largest.ok());
+  EXPECT_TRUE(largest.flags & kSilhouetteSeveralComponents);
+  EXPECT_EQ(largest.num_components, 2);
+  EXPECT_NEAR(largest.signature.centroid_px.x(), 69.5, 1.0);
+  SignatureOptions options;
+  options.component = ComponentChoice::kNearestTo;
+  options.nearest_to_px = {250, 150};
+  const SignatureResult nearest = ExtractSignature(mask, options);
+  ASSERT_TRUE(nearest.ok());
+  EXPECT_NEAR(nearest.signature.centroid_px.x(), 230.0, 1.0);
+  EXPECT_NEAR(nearest.signature.centroid_px.y(), 140.0, 1.0);
+}
+
+TEST(PolarSignature, CentroidOutsideTheShapeIsReported) {
+  cv::Mat mask = cv::Mat::zeros(300, 300, CV_8UC1);
+  cv::ellipse(mask, {150, 150}, {100, 100}, 0, 40, 320, cv::Scalar(255), 25);  // a thick "C"
+  const SignatureResult result = ExtractSignature(mask);
+  ASSERT_TRUE(result.ok());
+  EXPECT_TRUE(result.flags & kSilhouetteCentroidOutside);
+  EXPECT_GT(result.signature.missed_directions, 0);
+}
+
+TEST(PolarSignature, TouchingTheBorderIsReported) {
+  cv::Mat mask = cv::Mat::zeros(100, 100, CV_8UC1);
+  cv::rectangle(mask, cv::Rect(0, 30, 50, 40), cv::Scalar(255), cv::FILLED);
+  const SignatureResult result = ExtractSignature(mask);
+  ASSERT_TRUE(result.ok());
+  EXPECT_TRUE(result.flags & kSilhouetteTouchesBorder);
+}
+
+TEST(PolarSignature, EmptyAndTooSmallSilhouettesAreStatusesNotErrors) {
+  cv::Mat mask = cv::Mat::zeros(100, 100, CV_8UC1);
+  EXPECT_EQ(ExtractSignature(mask).status, SignatureStatus::kEmpty);
+  cv::rectangle(mask, cv::Rect(10, 10, 5, 5), cv::Scalar(255), cv::FILLED);
+  EXPECT_EQ(ExtractSignature(mask).status, SignatureStatus::kTooSmall);
+  mask.at<uint8_t>(80, 80) = 255;  // a single pixel
+  EXPECT_EQ(ExtractSignature(mask).status, SignatureStatus::kTooSmall);
+  cv::line(mask, {20, 50}, {90, 50}, cv::Scalar(255));  // a one-pixel line: no area
+  EXPECT_EQ(ExtractSignature(mask).status, SignatureStatus::kTooSmall);
+}
+
+TEST(PolarSignature, BadInputThrowsWithAClearMessage) {
+  EXPECT_THROW(ExtractSignature(cv::Mat()), Error);
+  EXPECT_THROW(ExtractSignature(cv::Mat::zeros(10, 10, CV_8UC3)), Error);
+  EXPECT_THROW(ExtractSignature(cv::Mat::zeros(10, 10, CV_32FC1)), Error);
+  SignatureOptions options;
+  options.length = 999;
+  try {
+    ExtractSignature(cv::Mat::zeros(10, 10, CV_8UC1), options);
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("999"), std::string::npos);
+  }
+}
+
+TEST(PolarSignature, NonBinaryMasksCountEveryNonZeroPixel) {
+  cv::Mat a = cv::Mat::zeros(200, 200, CV_8UC1);
+  cv::ellipse(a, {100, 100}, {70, 30}, 10, 0, 360, cv::Scalar(255), cv::FILLED);
+  cv::Mat b = a / 255;  // values 0/1
+  EXPECT_EQ(ExtractSignature(a).signature.radii, ExtractSignature(b).signature.radii);
+}
+
+}  // namespace
+}  // namespace silpose
