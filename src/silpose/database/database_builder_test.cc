@@ -1,0 +1,100 @@
+#include "silpose/database/database_builder.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "silpose/util/error.h"
+#include "silpose/util/hash.h"
+
+namespace silpose {
+namespace {
+
+// An L-shaped prism (no symmetry in its outline for most views) written as OBJ.
+std::filesystem::path WriteLPrism(const std::filesystem::path& directory, const std::string& name) {
+  const double xy[6][2] = {{0, 0}, {3, 0}, {3, 1}, {1, 1}, {1, 2.2}, {0, 2.2}};
+  std::ofstream obj(directory / (name + ".obj"));
+  for (double z : {0.0, 0.7}) {
+    for (const auto& p : xy) obj << "v " << p[0] << " " << p[1] << " " << z << "\n";
+  }
+  // Bottom and top as fans over the L (convex pieces: quads 0-1-2-3 and 0-3-4-5).
+  obj << "f 1 3 2\nf 1 4 3\nf 1 5 4\nf 1 6 5\n";
+  obj << "f 7 8 9\nf 7 9 10\nf 7 10 11\nf 7 11 12\n";
+  for (int i = 0; i < 6; ++i) {
+    const int a = i + 1;
+    const int b = (i + 1) % 6 + 1;
+    obj << "f " << a << " " << b << " " << b + 6 << "\nf " << a << " " << b + 6 << " " << a + 6
+        << "\n";
+  }
+  return directory / (name + ".obj");
+}
+
+class DatabaseBuilderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("silpose_builder_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(directory_);
+  }
+  void TearDown() override { std::filesystem::remove_all(directory_); }
+
+  static DatabaseBuildOptions SmallOptions(int threads) {
+    DatabaseBuildOptions options;
+    options.parameters.view_sphere.num_views = 60;
+    options.parameters.render.resolution_px = 96;
+    options.parameters.signature.length = 180;
+    options.num_threads = threads;
+    return options;
+  }
+
+  std::filesystem::path directory_;
+};
+
+TEST_F(DatabaseBuilderTest, BuildsEveryViewAndRecordsTheModel) {
+  const auto path = WriteLPrism(directory_, "lprism");
+  const ViewDatabase database = BuildViewDatabase({path}, SmallOptions(2));
+  ASSERT_EQ(database.models.size(), 1u);
+  const ModelViews& model = database.models[0];
+  EXPECT_EQ(model.name, "lprism");
+  EXPECT_EQ(model.mesh_hash, HashFile(path));
+  EXPECT_EQ(model.num_triangles, 20u);
+  EXPECT_NEAR(model.centre[0], 1.5, 1e-6);
+  EXPECT_NEAR(model.radius, std::sqrt(1.5 * 1.5 + 1.1 * 1.1 + 0.35 * 0.35), 1e-5);
+  ASSERT_EQ(model.views.size(), 60u);
+  EXPECT_EQ(model.signatures.size(), 60u * 180u);
+  for (const ViewRecord& view : model.views) {
+    EXPECT_EQ(view.status, SignatureStatus::kOk);
+    EXPECT_FALSE(view.flags & kSilhouetteTouchesBorder);
+    // The bounding sphere fills 90% of the image: the silhouette is inside it.
+    EXPECT_LT(view.mean_radius_px, 0.45 * 96);
+    EXPECT_GT(view.mean_radius_px, 5.0);
+  }
+}
+
+TEST_F(DatabaseBuilderTest, ThreadCountDoesNotChangeTheResult) {
+  const auto path = WriteLPrism(directory_, "lprism");
+  const ViewDatabase one = BuildViewDatabase({path}, SmallOptions(1));
+  const ViewDatabase two = BuildViewDatabase({path}, SmallOptions(2));
+  EXPECT_EQ(one.Serialize(), two.Serialize());
+}
+
+TEST_F(DatabaseBuilderTest, BadInputNamesTheFile) {
+  const auto path = WriteLPrism(directory_, "lprism");
+  try {
+    BuildViewDatabase({path, directory_ / "missing.obj"}, SmallOptions(1));
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("missing.obj"), std::string::npos) << error.what();
+  }
+  std::filesystem::create_directories(directory_ / "other");
+  const auto twin = WriteLPrism(directory_ / "other", "lprism");
+  EXPECT_THROW(BuildViewDatabase({path, twin}, SmallOptions(1)), Error);
+  EXPECT_THROW(BuildViewDatabase({}, SmallOptions(1)), Error);
+  DatabaseBuildOptions bad = SmallOptions(1);
+  bad.parameters.signature.length = 7;
+  EXPECT_THROW(BuildViewDatabase({path}, bad), Error);
+}
+
+}  // namespace
+}  // namespace silpose

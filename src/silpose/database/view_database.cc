@@ -279,13 +279,14 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   }
   uint64_t payload_size = 0;
   std::memcpy(&payload_size, bytes.data() + 12, sizeof(payload_size));
-  const uint64_t expected_size = kHeaderSize + payload_size + kChecksumSize;
-  if (payload_size > bytes.size() || expected_size != bytes.size()) {
-    if (payload_size <= bytes.size() && bytes.size() < expected_size) {
-      ThrowError(source, ": truncated database (", bytes.size(), " of ", expected_size, " bytes)");
-    }
-    ThrowError(source, ": corrupt database (size field says ", expected_size,
-               " bytes, the file has ", bytes.size(), ")");
+  const uint64_t available = bytes.size() - kHeaderSize - kChecksumSize;
+  if (payload_size > available) {
+    ThrowError(source, ": truncated database (", bytes.size(), " bytes, its header announces ",
+               payload_size + kHeaderSize + kChecksumSize, ")");
+  }
+  if (payload_size < available) {
+    ThrowError(source, ": corrupt database (", available - payload_size,
+               " bytes more than its header announces)");
   }
   uint64_t stored_checksum = 0;
   std::memcpy(&stored_checksum, bytes.data() + bytes.size() - kChecksumSize, kChecksumSize);

@@ -1,0 +1,178 @@
+#include "silpose/database/view_database.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "silpose/util/error.h"
+#include "silpose/util/hash.h"
+
+namespace silpose {
+namespace {
+
+// A small but complete database with made-up contents (no rendering), for the file format.
+ViewDatabase SmallDatabase() {
+  ViewDatabase database;
+  DatabaseParameters& parameters = database.parameters;
+  parameters.view_sphere.num_views = 12;
+  parameters.view_sphere.num_bins = 3;
+  parameters.signature.length = 32;
+  parameters.render.resolution_px = 64;
+  database.sphere = BuildViewSphere(parameters.view_sphere);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> radius(0.5f, 1.5f);
+  for (const char* name : {"alpha", "beta"}) {
+    ModelViews model;
+    model.name = name;
+    model.source_path = std::string("/models/") + name + ".obj";
+    model.mesh_hash = 0x0123456789abcdefULL;
+    model.centre[0] = 1.0;
+    model.centre[1] = -2.0;
+    model.centre[2] = 3.5;
+    model.radius = 4.25;
+    model.num_vertices = 100;
+    model.num_triangles = 196;
+    model.views.resize(12);
+    model.signatures.resize(12 * 32);
+    for (int v = 0; v < 12; ++v) {
+      ViewRecord& record = model.views[static_cast<size_t>(v)];
+      record.status = v == 5 ? SignatureStatus::kTooSmall : SignatureStatus::kOk;
+      record.flags = static_cast<uint32_t>(v % 4);
+      record.mean_radius_px = 20.0f + static_cast<float>(v);
+      record.centroid_x_px = 31.5f;
+      record.centroid_y_px = 30.0f;
+      record.area_px = 900.0f;
+      record.relative_std = 0.1f;
+      if (v != 5) {
+        for (float& r : model.MutableSignature(v)) r = radius(rng);
+      }
+    }
+    database.models.push_back(std::move(model));
+  }
+  return database;
+}
+
+std::string ErrorOf(const std::string& bytes) {
+  try {
+    ViewDatabase::Deserialize(bytes, "test.db");
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
+}
+
+void Recompute(std::string* bytes) {
+  const uint64_t checksum = HashBytes(bytes->data(), bytes->size() - 8);
+  std::memcpy(bytes->data() + bytes->size() - 8, &checksum, 8);
+}
+
+TEST(ViewDatabaseFile, RoundTripKeepsEverything) {
+  const ViewDatabase original = SmallDatabase();
+  const auto path = std::filesystem::temp_directory_path() / "silpose_roundtrip.db";
+  original.Write(path);
+  const ViewDatabase loaded = ViewDatabase::Read(path);
+  std::filesystem::remove(path);
+  EXPECT_TRUE(loaded.parameters == original.parameters);
+  EXPECT_EQ(loaded.sphere.directions, original.sphere.directions);
+  EXPECT_EQ(loaded.sphere.typical_spacing_rad, original.sphere.typical_spacing_rad);
+  EXPECT_EQ(loaded.sphere.neighbour_offsets, original.sphere.neighbour_offsets);
+  EXPECT_EQ(loaded.sphere.neighbour_indices, original.sphere.neighbour_indices);
+  EXPECT_EQ(loaded.sphere.bin_of_view, original.sphere.bin_of_view);
+  EXPECT_EQ(loaded.sphere.bin_centres, original.sphere.bin_centres);
+  ASSERT_EQ(loaded.models.size(), 2u);
+  for (size_t m = 0; m < 2; ++m) {
+    const ModelViews& a = original.models[m];
+    const ModelViews& b = loaded.models[m];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.source_path, b.source_path);
+    EXPECT_EQ(a.mesh_hash, b.mesh_hash);
+    EXPECT_EQ(a.radius, b.radius);
+    EXPECT_EQ(a.centre[2], b.centre[2]);
+    EXPECT_EQ(a.num_triangles, b.num_triangles);
+    EXPECT_EQ(a.signatures, b.signatures);
+    for (size_t v = 0; v < a.views.size(); ++v) {
+      EXPECT_EQ(a.views[v].status, b.views[v].status);
+      EXPECT_EQ(a.views[v].flags, b.views[v].flags);
+      EXPECT_EQ(a.views[v].mean_radius_px, b.views[v].mean_radius_px);
+    }
+  }
+  EXPECT_EQ(loaded.FindModel("beta"), 1);
+  EXPECT_EQ(loaded.FindModel("gamma"), -1);
+  EXPECT_EQ(loaded.Serialize(), original.Serialize());
+}
+
+TEST(ViewDatabaseFile, EverySingleByteCorruptionIsRefused) {
+  const std::string bytes = SmallDatabase().Serialize();
+  ASSERT_GT(bytes.size(), 1000u);
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    for (uint8_t change : {uint8_t{0x01}, uint8_t{0xff}}) {
+      std::string corrupt = bytes;
+      corrupt[i] = static_cast<char>(corrupt[i] ^ change);
+      const std::string message = ErrorOf(corrupt);
+      ASSERT_FALSE(message.empty()) << "byte " << i << " changed, file accepted";
+      ASSERT_EQ(message.rfind("test.db: ", 0), 0u) << message;
+    }
+  }
+}
+
+TEST(ViewDatabaseFile, EveryTruncationIsRefused) {
+  const std::string bytes = SmallDatabase().Serialize();
+  for (size_t length = 0; length < bytes.size(); ++length) {
+    const std::string message = ErrorOf(bytes.substr(0, length));
+    ASSERT_FALSE(message.empty()) << "truncated to " << length << " bytes, file accepted";
+    if (length >= 20) {
+      EXPECT_NE(message.find("truncated"), std::string::npos) << message;
+    }
+  }
+  // Appending is refused too.
+  EXPECT_FALSE(ErrorOf(bytes + "x").empty());
+}
+
+TEST(ViewDatabaseFile, ForeignAndOtherVersionFilesAreNamedAsSuch) {
+  EXPECT_NE(ErrorOf("P6\n640 480\n255\nthis is a picture, not a database").find("not a silpose"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("").find("not a silpose"), std::string::npos);
+  std::string bytes = SmallDatabase().Serialize();
+  const uint32_t version = 7;
+  std::memcpy(bytes.data() + 8, &version, 4);
+  const std::string message = ErrorOf(bytes);
+  EXPECT_NE(message.find("version 7"), std::string::npos) << message;
+  EXPECT_NE(message.find("rebuild"), std::string::npos) << message;
+}
+
+TEST(ViewDatabaseFile, InconsistentContentBehindAValidChecksumIsRefused) {
+  const std::string bytes = SmallDatabase().Serialize();
+  // Offsets of fields in the payload (see Serialize): after the 20-byte header come the sampling
+  // method (4), roll reference (4) and view count (4).
+  std::string wrong_views = bytes;
+  const uint32_t views = 13;
+  std::memcpy(wrong_views.data() + 28, &views, 4);
+  Recompute(&wrong_views);
+  EXPECT_NE(ErrorOf(wrong_views).find("corrupt"), std::string::npos);
+
+  // A NaN in the last signature value.
+  std::string nan_signature = bytes;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(nan_signature.data() + nan_signature.size() - 12, &nan, 4);
+  Recompute(&nan_signature);
+  EXPECT_NE(ErrorOf(nan_signature).find("invalid signature value"), std::string::npos)
+      << ErrorOf(nan_signature);
+}
+
+TEST(ViewDatabaseFile, MissingFilesAndDirectoriesNameThePath) {
+  try {
+    ViewDatabase::Read("/nonexistent/dir/models.db");
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("/nonexistent/dir/models.db: no such file"),
+              std::string::npos);
+  }
+  EXPECT_THROW(ViewDatabase::Read(std::filesystem::temp_directory_path()), Error);
+  EXPECT_THROW(SmallDatabase().Write("/nonexistent/dir/models.db"), Error);
+}
+
+}  // namespace
+}  // namespace silpose

@@ -1,0 +1,96 @@
+#include "silpose/io/camera_file.h"
+
+#include <opencv2/core.hpp>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+
+PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) ThrowError(name, ": no such camera file");
+  cv::FileStorage storage;
+  try {
+    if (!storage.open(name, cv::FileStorage::READ)) {
+      ThrowError(name, ": cannot read as an OpenCV YAML/XML/JSON camera file");
+    }
+  } catch (const cv::Exception& exception) {
+    ThrowError(name, ": not an OpenCV YAML/XML/JSON camera file (", exception.msg, ")");
+  }
+  cv::Mat matrix;
+  cv::Mat distortion;
+  int width = 0;
+  int height = 0;
+  try {
+    if (storage["camera_matrix"].empty()) ThrowError(name, ": no camera_matrix");
+    storage["camera_matrix"] >> matrix;
+    if (!storage["distortion_coefficients"].empty()) {
+      storage["distortion_coefficients"] >> distortion;
+    }
+    if (storage["image_width"].empty() || storage["image_height"].empty()) {
+      ThrowError(name, ": no image_width/image_height");
+    }
+    storage["image_width"] >> width;
+    storage["image_height"] >> height;
+  } catch (const cv::Exception& exception) {
+    ThrowError(name, ": malformed camera file (", exception.msg, ")");
+  }
+  if (matrix.rows != 3 || matrix.cols != 3 || matrix.channels() != 1) {
+    ThrowError(name, ": camera_matrix must be a 3x3 matrix, got ", matrix.rows, "x", matrix.cols);
+  }
+  matrix.convertTo(matrix, CV_64F);
+  PinholeCamera camera;
+  camera.width_px = width;
+  camera.height_px = height;
+  camera.focal_x_px = matrix.at<double>(0, 0);
+  camera.focal_y_px = matrix.at<double>(1, 1);
+  camera.principal_x_px = matrix.at<double>(0, 2);
+  camera.principal_y_px = matrix.at<double>(1, 2);
+  if (std::abs(matrix.at<double>(0, 1)) > 1e-9 || std::abs(matrix.at<double>(1, 0)) > 1e-9 ||
+      std::abs(matrix.at<double>(2, 0)) > 1e-9 || std::abs(matrix.at<double>(2, 1)) > 1e-9 ||
+      std::abs(matrix.at<double>(2, 2) - 1.0) > 1e-9) {
+    ThrowError(name, ": camera_matrix must have the form [fx 0 cx; 0 fy cy; 0 0 1]");
+  }
+  if (!distortion.empty()) {
+    if (distortion.rows != 1 && distortion.cols != 1) {
+      ThrowError(name, ": distortion_coefficients must be a vector");
+    }
+    distortion = distortion.reshape(1, 1);
+    distortion.convertTo(distortion, CV_64F);
+    for (int i = 0; i < distortion.cols; ++i) {
+      const double k = distortion.at<double>(0, i);
+      if (i < 5) {
+        camera.distortion[static_cast<size_t>(i)] = k;
+      } else if (k != 0.0) {
+        ThrowError(name, ": distortion coefficient ", i + 1,
+                   " is non-zero; only k1 k2 p1 p2 k3 are supported");
+      }
+    }
+  }
+  std::string problem;
+  if (!camera.Check(&problem)) ThrowError(name, ": invalid camera: ", problem);
+  return camera;
+}
+
+void WriteCameraFile(const std::filesystem::path& path, const PinholeCamera& camera) {
+  std::string problem;
+  if (!camera.Check(&problem)) ThrowError(path.string(), ": cannot write an invalid camera: ", problem);
+  try {
+    cv::FileStorage storage(path.string(), cv::FileStorage::WRITE);
+    if (!storage.isOpened()) ThrowError(path.string(), ": cannot open for writing");
+    storage << "image_width" << camera.width_px;
+    storage << "image_height" << camera.height_px;
+    const cv::Mat matrix = (cv::Mat_<double>(3, 3) << camera.focal_x_px, 0.0,
+                            camera.principal_x_px, 0.0, camera.focal_y_px, camera.principal_y_px,
+                            0.0, 0.0, 1.0);
+    storage << "camera_matrix" << matrix;
+    cv::Mat distortion(1, 5, CV_64F);
+    for (int i = 0; i < 5; ++i) distortion.at<double>(0, i) = camera.distortion[static_cast<size_t>(i)];
+    storage << "distortion_coefficients" << distortion;
+  } catch (const cv::Exception& exception) {
+    ThrowError(path.string(), ": cannot write camera file (", exception.msg, ")");
+  }
+}
+
+}  // namespace silpose
