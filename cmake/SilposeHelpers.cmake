@@ -2,7 +2,7 @@
 # alias silpose::<name>. Each layer names what it links, so the layering is checked at link time.
 function(silpose_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
-                         -Wno-sign-conversion)
+                         -Wno-sign-conversion -Wno-missing-field-initializers)
   if(SILPOSE_SANITIZE)
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)

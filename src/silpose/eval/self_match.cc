@@ -38,8 +38,8 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
   std::string error;
   if (!options.Check(&error)) ThrowError("invalid self-match options: ", error);
   if (meshes.size() != database.models.size()) {
-    ThrowError("self-match needs one mesh per database model (", database.models.size(),
-               "), got ", meshes.size());
+    ThrowError("self-match needs one mesh per database model (", database.models.size(), "), got ",
+               meshes.size());
   }
   for (size_t m = 0; m < meshes.size(); ++m) {
     if (meshes[m].name != database.models[m].name) {
@@ -74,7 +74,8 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
         ++done;
         const Eigen::Vector3d& direction = database.sphere.directions[static_cast<size_t>(v)];
         for (size_t s = 0; s < options.scales.size(); ++s) {
-          std::mt19937_64 rng(options.seed ^ (0x9e3779b97f4a7c15ULL * (m * 1000003 + static_cast<size_t>(v) * 17 + s + 1)));
+          std::mt19937_64 rng(options.seed ^ (0x9e3779b97f4a7c15ULL *
+                                              (m * 1000003 + static_cast<size_t>(v) * 17 + s + 1)));
           const double roll = std::uniform_real_distribution<double>(-180.0, 180.0)(rng);
           ViewRenderOptions render = database.parameters.render;
           render.resolution_px =
@@ -100,7 +101,8 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
               ++local.own_view;
               roll_error_deg = std::abs(WrapDegrees(best.roll_deg - roll));
             } else {
-              for (uint32_t n : database.sphere.Neighbours(v)) near |= static_cast<int>(n) == best.view;
+              for (uint32_t n : database.sphere.Neighbours(v))
+                near |= static_cast<int>(n) == best.view;
               if (near) {
                 const double expected = TransportRoll(
                     direction, roll, database.sphere.directions[static_cast<size_t>(best.view)]);

@@ -38,7 +38,8 @@ struct SelfMatchFailure {
   double found_roll_deg = 0.0;
   float found_score = 0.0f;
   /// Correlation of the database silhouettes of the true and the found view at the found relative
-  /// roll: near 1 means the two are indistinguishable by silhouette (symmetry), not a matching error.
+  /// roll: near 1 means the two are indistinguishable by silhouette (symmetry), not a matching
+  /// error.
   float silhouette_agreement = 0.0f;
 };
 

@@ -75,18 +75,19 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
 
 void WriteCameraFile(const std::filesystem::path& path, const PinholeCamera& camera) {
   std::string problem;
-  if (!camera.Check(&problem)) ThrowError(path.string(), ": cannot write an invalid camera: ", problem);
+  if (!camera.Check(&problem))
+    ThrowError(path.string(), ": cannot write an invalid camera: ", problem);
   try {
     cv::FileStorage storage(path.string(), cv::FileStorage::WRITE);
     if (!storage.isOpened()) ThrowError(path.string(), ": cannot open for writing");
     storage << "image_width" << camera.width_px;
     storage << "image_height" << camera.height_px;
-    const cv::Mat matrix = (cv::Mat_<double>(3, 3) << camera.focal_x_px, 0.0,
-                            camera.principal_x_px, 0.0, camera.focal_y_px, camera.principal_y_px,
-                            0.0, 0.0, 1.0);
+    const cv::Mat matrix = (cv::Mat_<double>(3, 3) << camera.focal_x_px, 0.0, camera.principal_x_px,
+                            0.0, camera.focal_y_px, camera.principal_y_px, 0.0, 0.0, 1.0);
     storage << "camera_matrix" << matrix;
     cv::Mat distortion(1, 5, CV_64F);
-    for (int i = 0; i < 5; ++i) distortion.at<double>(0, i) = camera.distortion[static_cast<size_t>(i)];
+    for (int i = 0; i < 5; ++i)
+      distortion.at<double>(0, i) = camera.distortion[static_cast<size_t>(i)];
     storage << "distortion_coefficients" << distortion;
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": cannot write camera file (", exception.msg, ")");

@@ -75,7 +75,8 @@ TEST(CameraFile, BadFilesGiveOneClearMessageNamingTheFile) {
                                 "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
                                 "   data: [ 1., 0., 0., 1. ]\n";
   EXPECT_NE(ErrorOf(wrong_shape).find("3x3"), std::string::npos);
-  for (const auto& path : {garbage, no_matrix, bad_focal, wrong_shape}) std::filesystem::remove(path);
+  for (const auto& path : {garbage, no_matrix, bad_focal, wrong_shape})
+    std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -11,7 +11,8 @@ cv::Mat ReadMask(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code error;
   if (!std::filesystem::exists(path, error)) ThrowError(name, ": no such file");
-  if (std::filesystem::is_directory(path, error)) ThrowError(name, ": is a directory, not an image");
+  if (std::filesystem::is_directory(path, error))
+    ThrowError(name, ": is a directory, not an image");
   cv::Mat image;
   try {
     image = cv::imread(name, cv::IMREAD_UNCHANGED);
@@ -38,7 +39,8 @@ void WriteMask(const std::filesystem::path& path, const cv::Mat& mask) {
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": cannot write image (", exception.msg, ")");
   }
-  if (!written) ThrowError(path.string(), ": cannot write image (unknown extension or no permission)");
+  if (!written)
+    ThrowError(path.string(), ": cannot write image (unknown extension or no permission)");
 }
 
 }  // namespace silpose

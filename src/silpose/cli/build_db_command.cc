@@ -1,0 +1,105 @@
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "silpose/cli/commands.h"
+#include "silpose/database/database_builder.h"
+#include "silpose/util/error.h"
+#include "silpose/util/progress.h"
+
+namespace silpose::cli {
+namespace {
+
+struct BuildDbArguments {
+  std::vector<std::string> models;
+  std::string output;
+  DatabaseBuildOptions options;
+};
+
+void PrintDatabaseSummary(const ViewDatabase& database) {
+  std::printf("%-24s %9s %10s %7s %8s %7s %7s\n", "model", "triangles", "radius", "usable",
+              "circular", "holes", "border");
+  for (const ModelViews& model : database.models) {
+    int usable = 0, circular = 0, holes = 0, border = 0;
+    for (const ViewRecord& view : model.views) {
+      usable += view.status == SignatureStatus::kOk;
+      circular += (view.flags & kSilhouetteNearlyCircular) != 0;
+      holes += (view.flags & kSilhouetteHasHoles) != 0;
+      border += (view.flags & kSilhouetteTouchesBorder) != 0;
+    }
+    std::printf("%-24s %9u %10.4g %7d %8d %7d %7d\n", model.name.c_str(), model.num_triangles,
+                model.radius, usable, circular, holes, border);
+    if (usable < static_cast<int>(model.views.size())) {
+      std::fprintf(stderr,
+                   "silpose build-db: warning: %s: %d views had no describable silhouette and "
+                   "will never match\n",
+                   model.name.c_str(), static_cast<int>(model.views.size()) - usable);
+    }
+  }
+}
+
+void RunBuildDb(const BuildDbArguments& arguments) {
+  std::vector<std::filesystem::path> paths(arguments.models.begin(), arguments.models.end());
+  DatabaseBuildOptions options = arguments.options;
+  options.show_progress = true;
+  const auto start = std::chrono::steady_clock::now();
+  const ViewDatabase database = BuildViewDatabase(paths, options);
+  database.Write(arguments.output);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  PrintDatabaseSummary(database);
+  std::error_code error;
+  const auto size = std::filesystem::file_size(arguments.output, error);
+  std::printf("wrote %s: %zu models x %d views, signatures of %d, %s, in %.1f s\n",
+              arguments.output.c_str(), database.models.size(), database.num_views(),
+              database.signature_length(), error ? "?" : FormatBytes(size).c_str(), seconds);
+}
+
+}  // namespace
+
+void AddBuildDbCommand(CLI::App& app) {
+  auto arguments = std::make_shared<BuildDbArguments>();
+  CLI::App* command = app.add_subcommand(
+      "build-db",
+      "Render each mesh from near-uniform viewpoints on a sphere and store the silhouette "
+      "signatures, the views' neighbour graph and K-means bins in a database file.");
+  DatabaseParameters& parameters = arguments->options.parameters;
+  command
+      ->add_option("models", arguments->models,
+                   "Mesh files (OBJ, PLY, STL, OFF, glTF, ...); model names are file stems")
+      ->required();
+  command->add_option("-o,--output", arguments->output, "Database file to write")->required();
+  command
+      ->add_option("--views", parameters.view_sphere.num_views,
+                   "Viewpoints on the sphere (paper: 1000)")
+      ->capture_default_str();
+  command
+      ->add_option("--signature-length", parameters.signature.length,
+                   "Radii per signature, M (even; paper: 1000)")
+      ->capture_default_str();
+  command
+      ->add_option("--resolution", parameters.render.resolution_px,
+                   "Rendered image width and height, pixels")
+      ->capture_default_str();
+  command
+      ->add_option("--distance", parameters.render.distance_in_radii,
+                   "Camera distance from the object centre, in object radii")
+      ->capture_default_str();
+  command
+      ->add_option("--fill", parameters.render.fill_fraction,
+                   "Share of the image width the object's bounding sphere fills")
+      ->capture_default_str();
+  command
+      ->add_option("--bins", parameters.view_sphere.num_bins,
+                   "K-means bins of the views, for KLD-sampling (paper: 10)")
+      ->capture_default_str();
+  command
+      ->add_option("--neighbour-radius", parameters.view_sphere.neighbour_radius_factor,
+                   "Views closer than this many typical spacings are neighbours")
+      ->capture_default_str();
+  command->add_option("--threads", arguments->options.num_threads, "Worker threads (0 = all cores)")
+      ->capture_default_str();
+  command->callback([arguments] { RunBuildDb(*arguments); });
+}
+
+}  // namespace silpose::cli

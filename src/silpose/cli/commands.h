@@ -1,0 +1,28 @@
+#pragma once
+// The subcommands of the silpose binary. Each Add*Command registers its options on `app` and a
+// callback that calls the library; errors surface as silpose::Error and main() prints them.
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace silpose::cli {
+
+void AddBuildDbCommand(CLI::App& app);
+void AddMatchCommand(CLI::App& app);
+void AddRenderCommand(CLI::App& app);
+void AddDemoCommand(CLI::App& app);
+void AddEvalCommand(CLI::App& app);
+
+/// The project's sample models: `override_dir` if given, else the source tree's data/models, else
+/// the installed share/silpose/models. Throws silpose::Error if none is found.
+std::vector<std::filesystem::path> SampleModels(const std::string& override_dir = "");
+/// All mesh files (by extension) in a folder, sorted by name.
+std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& directory);
+/// Parses "X,Y,Z" into three finite numbers; throws silpose::Error naming `what` otherwise.
+std::vector<double> ParseTriple(const std::string& text, const std::string& what);
+/// Human-readable size ("12.3 MB").
+std::string FormatBytes(uintmax_t bytes);
+
+}  // namespace silpose::cli

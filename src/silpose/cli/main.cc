@@ -1,0 +1,50 @@
+// silpose: which known rigid object a camera sees, and where it is, from its silhouette.
+// Subcommands are listed in commands.h; each parses its options and calls the library.
+
+#include <cstdio>
+#include <exception>
+#include <opencv2/core.hpp>
+
+#include "silpose/cli/commands.h"
+#include "silpose/util/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "silpose: identify a known rigid object and its pose from its silhouette.\n"
+      "Typical use: 'silpose build-db MODELS... -o models.db', then 'silpose match -d models.db "
+      "mask.png'.\nRun 'silpose demo' to see the whole pipeline on built-in sample models."};
+  app.name("silpose");
+  app.set_version_flag("--version", std::string("silpose ") + SILPOSE_VERSION);
+  app.require_subcommand(1);
+  app.failure_message([](const CLI::App* failed, const CLI::Error& error) {
+    std::string name = failed->get_name();
+    if (name != "silpose") name = "silpose " + name;
+    return name + ": error: " + error.what() + " (see --help)\n";
+  });
+  silpose::cli::AddBuildDbCommand(app);
+  silpose::cli::AddMatchCommand(app);
+  silpose::cli::AddRenderCommand(app);
+  silpose::cli::AddDemoCommand(app);
+  silpose::cli::AddEvalCommand(app);
+
+  std::string command = "silpose";
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error);
+  } catch (const silpose::Error& error) {
+    for (const CLI::App* sub : app.get_subcommands()) command = "silpose " + sub->get_name();
+    std::fprintf(stderr, "%s: error: %s\n", command.c_str(), error.what());
+    return 1;
+  } catch (const cv::Exception& error) {
+    std::fprintf(stderr, "silpose: OpenCV error: %s\n", error.what());
+    return 3;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "silpose: out of memory\n");
+    return 3;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "silpose: internal error: %s\n", error.what());
+    return 3;
+  }
+  return 0;
+}
