@@ -27,6 +27,19 @@ int main(int argc, char** argv) {
   silpose::cli::AddDemoCommand(app);
   silpose::cli::AddEvalCommand(app);
 
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+      known |= sub->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "silpose: error: unknown command '%s' (commands: %s; see --help)\n",
+                   argv[1], names.c_str());
+      return 2;
+    }
+  }
   std::string command = "silpose";
   try {
     app.parse(argc, argv);

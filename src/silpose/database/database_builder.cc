@@ -6,9 +6,11 @@
 #include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <sstream>
 
+#include "silpose/geometry/view_frame.h"
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
 #include "silpose/util/progress.h"
@@ -33,16 +35,26 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   const Eigen::Vector3d centre = mesh.Centre();
   for (int i = 0; i < 3; ++i) model->centre[i] = centre[i];
   model->radius = mesh.Radius();
+  if (!(model->radius > 0.0) || !std::isfinite(model->radius)) {
+    ThrowError(mesh.name, ": the mesh has no extent (all vertices coincide), nothing to render");
+  }
   model->num_vertices = static_cast<uint32_t>(mesh.vertices.size());
   model->num_triangles = static_cast<uint32_t>(mesh.triangles.size());
   model->views.assign(static_cast<size_t>(num_views), ViewRecord{});
   model->signatures.assign(static_cast<size_t>(num_views) * static_cast<size_t>(length), 0.0f);
 
+  // Camera and distance are the same for every view; RenderView would recompute the mesh's centre
+  // and radius each time.
+  const PinholeCamera camera = ViewCamera(parameters.render);
+  const double distance = parameters.render.distance_in_radii * model->radius;
   tbb::enumerable_thread_specific<cv::Mat> masks;
   auto describe = [&](const tbb::blocked_range<int>& range) {
     cv::Mat& mask = masks.local();
     for (int v = range.begin(); v != range.end(); ++v) {
-      RenderView(mesh, sphere.directions[static_cast<size_t>(v)], 0.0, parameters.render, &mask);
+      RenderSilhouette(
+          mesh, camera,
+          CameraFromObjectAtView(sphere.directions[static_cast<size_t>(v)], 0.0, distance, centre),
+          &mask);
       const SignatureResult result = ExtractSignature(mask, parameters.signature);
       ViewRecord& record = model->views[static_cast<size_t>(v)];
       record.status = result.status;

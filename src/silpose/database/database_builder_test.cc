@@ -33,8 +33,8 @@ std::filesystem::path WriteLPrism(const std::filesystem::path& directory, const 
 class DatabaseBuilderTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("silpose_builder_" + std::to_string(::getpid()));
+    directory_ =
+        std::filesystem::temp_directory_path() / ("silpose_builder_" + std::to_string(::getpid()));
     std::filesystem::create_directories(directory_);
   }
   void TearDown() override { std::filesystem::remove_all(directory_); }

@@ -365,7 +365,7 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   const auto num_models = in.Get<uint32_t>("model count");
   if (num_models > kMaxModels) in.Fail("model count ", num_models, " out of range");
   const size_t per_model_bytes =
-      static_cast<size_t>(num_views) * (21 + 4 * static_cast<size_t>(length));
+      static_cast<size_t>(num_views) * (25 + 4 * static_cast<size_t>(length));
   if (static_cast<size_t>(num_models) * per_model_bytes > in.remaining()) {
     in.Fail(num_models, " models of ", num_views, " views do not fit in the file");
   }

@@ -14,11 +14,34 @@ double CorrelationPeak::RollDeg(int length) const {
   return roll;
 }
 
-CircularCorrelator::CircularCorrelator(int length, FftBackend backend)
+bool CorrelationOptions::Check(std::string* error) const {
+  if (!(smoothing_deg >= 0.0) || !std::isfinite(smoothing_deg) || smoothing_deg > 90.0) {
+    if (error != nullptr) {
+      *error =
+          "signature smoothing must be in [0, 90] degrees, got " + std::to_string(smoothing_deg);
+    }
+    return false;
+  }
+  return true;
+}
+
+CircularCorrelator::CircularCorrelator(int length, const CorrelationOptions& options)
     : length_(length),
-      fft_(RealFft::Create(length, backend)),
+      options_(options),
+      fft_(RealFft::Create(length, options.backend)),
+      window_(static_cast<size_t>(length / 2 + 1), 1.0f),
       real_scratch_(static_cast<size_t>(length)),
-      complex_scratch_(static_cast<size_t>(length / 2 + 1)) {}
+      complex_scratch_(static_cast<size_t>(length / 2 + 1)) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError("invalid correlation options: ", error);
+  // Gaussian of standard deviation s (radians) over angle = Gaussian exp(-(k s)^2 / 2) over the
+  // harmonic number k.
+  const double sigma_rad = options.smoothing_deg * std::numbers::pi / 180.0;
+  for (size_t k = 0; k < window_.size(); ++k) {
+    const double ks = static_cast<double>(k) * sigma_rad;
+    window_[k] = static_cast<float>(std::exp(-0.5 * ks * ks));
+  }
+}
 
 void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectrum* spectrum,
                                    bool weighted) {
@@ -43,6 +66,23 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
   }
   fft_->Forward(real_scratch_.data(), spectrum->coefficients.data());
   spectrum->coefficients[0] = {0.0f, 0.0f};  // exactly zero mean
+  if (options_.smoothing_deg > 0.0) {
+    // Smoothing changes the norm: restore unit norm through Parseval (e(0) of the signature with
+    // itself is the weighted sum of its squared coefficients).
+    double energy = 0.0;
+    for (size_t k = 1; k < half; ++k) {
+      spectrum->coefficients[k] *= window_[k];
+      energy += ((k == half - 1) ? 1.0 : 2.0) * std::norm(spectrum->coefficients[k]);
+    }
+    if (!(energy > 1e-20)) {
+      spectrum->has_variance = false;
+      std::fill(spectrum->coefficients.begin(), spectrum->coefficients.end(),
+                std::complex<float>(0.0f, 0.0f));
+      return;
+    }
+    const auto renormalise = static_cast<float>(1.0 / std::sqrt(energy));
+    for (auto& c : spectrum->coefficients) c *= renormalise;
+  }
   for (size_t k = 0; k < half; ++k) {
     const float weight = (!weighted || k == 0 || k == half - 1) ? 1.0f : 2.0f;
     spectrum->magnitudes[k] = weight * std::abs(spectrum->coefficients[k]);

@@ -19,11 +19,12 @@ bool MatchOptions::Check(std::string* error) const {
   return false;
 }
 
-ViewSpectra::ViewSpectra(const ViewDatabase& database, FftBackend backend)
-    : num_models_(static_cast<int>(database.models.size())),
+ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options)
+    : options_(options),
+      num_models_(static_cast<int>(database.models.size())),
       num_views_(database.sphere.num_views()),
       signature_length_(database.parameters.signature.length) {
-  CircularCorrelator correlator(signature_length_, backend);
+  CircularCorrelator correlator(signature_length_, options);
   spectra_.resize(static_cast<size_t>(num_models_) * static_cast<size_t>(num_views_));
   usable_.resize(spectra_.size());
   for (int m = 0; m < num_models_; ++m) {
@@ -37,8 +38,8 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, FftBackend backend)
   }
 }
 
-ViewMatcher::ViewMatcher(const ViewSpectra& spectra, FftBackend backend)
-    : spectra_(spectra), correlator_(spectra.signature_length(), backend) {}
+ViewMatcher::ViewMatcher(const ViewSpectra& spectra)
+    : spectra_(spectra), correlator_(spectra.signature_length(), spectra.options()) {}
 
 CorrelationPeak ViewMatcher::Score(const SignatureSpectrum& query, int model, int view) {
   return correlator_.Peak(query, spectra_.Get(model, view));

@@ -49,7 +49,7 @@ struct MatchStats {
 /// share one ViewSpectra).
 class ViewSpectra {
  public:
-  ViewSpectra(const ViewDatabase& database, FftBackend backend = FftBackend::kDefault);
+  explicit ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options = {});
   const SignatureSpectrum& Get(int model, int view) const {
     return spectra_[static_cast<size_t>(model) * static_cast<size_t>(num_views_) +
                     static_cast<size_t>(view)];
@@ -62,8 +62,10 @@ class ViewSpectra {
   int num_models() const { return num_models_; }
   int num_views() const { return num_views_; }
   int signature_length() const { return signature_length_; }
+  const CorrelationOptions& options() const { return options_; }
 
  private:
+  CorrelationOptions options_;
   int num_models_;
   int num_views_;
   int signature_length_;
@@ -73,7 +75,8 @@ class ViewSpectra {
 
 class ViewMatcher {
  public:
-  explicit ViewMatcher(const ViewSpectra& spectra, FftBackend backend = FftBackend::kDefault);
+  /// Correlates with the options the spectra were made with.
+  explicit ViewMatcher(const ViewSpectra& spectra);
 
   /// Best candidates for a signature of the database's length (PolarSignature::radii), best first.
   /// Throws silpose::Error for a signature of another length or invalid options.

@@ -21,8 +21,9 @@ void RenderSilhouette(const TriangleMesh& mesh, const PinholeCamera& camera,
 /// distance_in_radii * object radius from the object centre, focal length chosen so the object's
 /// bounding sphere fills fill_fraction of the image width.
 struct ViewRenderOptions {
-  /// Image width and height in pixels (>= 32).
-  int resolution_px = 256;
+  /// Image width and height in pixels (>= 32). 512 by default: at 256 the database's own pixel
+  /// staircase biases the roll of some views by up to 1 degree (docs/PERFORMANCE.md).
+  int resolution_px = 512;
   /// Camera distance from the object centre, in object radii (> 1).
   double distance_in_radii = 3.0;
   /// Diameter of the projected bounding sphere / image width, in (0, 1].

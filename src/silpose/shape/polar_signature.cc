@@ -200,8 +200,6 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
   const int chosen_index = outer[chosen];
   const auto& contour = contours[static_cast<size_t>(chosen_index)];
   PolarSignature& signature = result.signature;
-  signature.area_px = outer_area[chosen];
-  signature.centroid_px = outer_centroid[chosen];
 
   for (size_t j = 0; j < outer.size(); ++j) {
     if (outer_area[j] >= 0.01 * outer_area[chosen]) ++result.num_components;
@@ -223,6 +221,20 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
     result.status = SignatureStatus::kTooSmall;
     return result;
   }
+  // The chosen component alone, holes filled, in its bounding box: other components and holes
+  // must not move the centre.
+  const int margin = 1;
+  const cv::Rect box = cv::boundingRect(contour);
+  const cv::Rect roi(box.x - margin, box.y - margin, box.width + 2 * margin,
+                     box.height + 2 * margin);
+  cv::Mat filled = cv::Mat::zeros(roi.size(), CV_8UC1);
+  cv::drawContours(filled, contours, chosen_index, cv::Scalar(1), cv::FILLED, cv::LINE_8,
+                   cv::noArray(), 0, cv::Point(-roi.x, -roi.y));
+  // Centre of gravity and area from the pixels themselves (pixel centres at integer coordinates),
+  // not from the contour polygon, which runs half a pixel inside the pixels' outline.
+  const cv::Moments moments = cv::moments(filled, /*binaryImage=*/true);
+  signature.area_px = moments.m00;
+  signature.centroid_px = {moments.m10 / moments.m00 + roi.x, moments.m01 / moments.m00 + roi.y};
   if (cv::pointPolygonTest(contour,
                            cv::Point2f(static_cast<float>(signature.centroid_px.x()),
                                        static_cast<float>(signature.centroid_px.y())),
@@ -235,8 +247,11 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
   for (const auto& p : contour) polygon.emplace_back(p.x, p.y);
   signature.radii =
       StarConvexRadii(polygon, signature.centroid_px, options.length, &signature.missed_directions);
-  // The contour runs through the centres of the boundary pixels; the outline of the pixels
-  // themselves lies half a pixel further out. Adding it keeps the shape equal across scales.
+
+  // The contour runs through the centres of the boundary pixels; the pixels' own outline lies half
+  // a pixel further out, which keeps the shape the same across image sizes. (A sub-pixel outline
+  // from a blurred mask was tried and changed no match result: the binary masks' detail below one
+  // pixel, not the staircase, limits the precision; see docs/PERFORMANCE.md.)
   double sum = 0.0;
   for (float& r : signature.radii) {
     if (r > 0.0f) r += 0.5f;

@@ -1,0 +1,211 @@
+// Runs the silpose binary as a user would and checks its output, files and exit codes.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <string>
+
+#include "silpose/database/view_database.h"
+
+namespace silpose {
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+// Runs `silpose <arguments>` through the shell, capturing stdout and stderr.
+CommandResult Silpose(const std::string& arguments) {
+  static int counter = 0;
+  const auto err_path =
+      std::filesystem::temp_directory_path() /
+      ("silpose_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+  const std::string command =
+      std::string(SILPOSE_BINARY) + " " + arguments + " 2>" + err_path.string() + " </dev/null";
+  CommandResult run;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buffer{};
+  size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
+    run.out.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::ifstream err(err_path);
+  std::stringstream text;
+  text << err.rdbuf();
+  run.err = text.str();
+  std::filesystem::remove(err_path);
+  return run;
+}
+
+int Lines(const std::string& text) {
+  int lines = 0;
+  for (char c : text) lines += c == '\n';
+  return lines;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    directory_ =
+        std::filesystem::temp_directory_path() / ("silpose_cli_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(directory_);
+    models_ = std::string(SILPOSE_SAMPLE_MODELS_DIR);
+    // A small database shared by the tests: two sample models, 200 views.
+    database_ = (directory_ / "small.db").string();
+    const CommandResult run = Silpose("build-db " + models_ + "/bunny.obj " + models_ +
+                                      "/hand.obj -o " + database_ + " --views 200 --threads 2");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+  }
+  static void TearDownTestSuite() { std::filesystem::remove_all(directory_); }
+
+  static std::string Path(const std::string& name) { return (directory_ / name).string(); }
+
+  static inline std::filesystem::path directory_;
+  static inline std::string models_;
+  static inline std::string database_;
+};
+
+TEST_F(CliTest, EveryCommandHasHelp) {
+  for (const char* command :
+       {"", "build-db", "match", "render", "demo", "eval", "eval self-match"}) {
+    const CommandResult run = Silpose(std::string(command) + " --help");
+    EXPECT_EQ(run.exit_code, 0) << command;
+    EXPECT_NE(run.out.find("Usage"), std::string::npos) << command << ": " << run.out;
+  }
+  EXPECT_NE(Silpose("--version").out.find("silpose "), std::string::npos);
+}
+
+TEST_F(CliTest, BuildDbWritesALoadableDatabaseAndReportsIt) {
+  const ViewDatabase database = ViewDatabase::Read(database_);
+  ASSERT_EQ(database.models.size(), 2u);
+  EXPECT_EQ(database.models[0].name, "bunny");
+  EXPECT_EQ(database.models[1].name, "hand");
+  EXPECT_EQ(database.num_views(), 200);
+  EXPECT_EQ(database.signature_length(), 1000);
+}
+
+TEST_F(CliTest, RenderThenMatchFindsTheRenderedViewAndRoll) {
+  const ViewDatabase database = ViewDatabase::Read(database_);
+  const Eigen::Vector3d d = database.sphere.directions[57];
+  std::ostringstream view;
+  view << d.x() << ',' << d.y() << ',' << d.z();
+  const std::string mask = Path("hand57.png");
+  const CommandResult render = Silpose("render " + models_ + "/hand.obj --view=" + view.str() +
+                                       " --roll 33 --resolution 300 -o " + mask);
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  EXPECT_EQ(cv::imread(mask, cv::IMREAD_UNCHANGED).cols, 300);
+
+  const CommandResult table = Silpose("match -d " + database_ + " " + mask + " --top 3");
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_NE(table.out.find("hand"), std::string::npos) << table.out;
+
+  const CommandResult json = Silpose("match -d " + database_ + " " + mask + " --top 3 --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json result = nlohmann::json::parse(json.out);
+  ASSERT_EQ(result["candidates"].size(), 3u);
+  const auto& best = result["candidates"][0];
+  EXPECT_EQ(best["object"], "hand");
+  EXPECT_EQ(best["view"], 57);
+  EXPECT_NEAR(best["roll_deg"].get<double>(), 33.0, 0.72);
+  EXPECT_GT(best["score"].get<double>(), 0.98);
+  EXPECT_EQ(result["silhouette"]["status"], "ok");
+}
+
+TEST_F(CliTest, RenderWithACameraFileUsesItsImageSize) {
+  const std::string camera = Path("camera.yml");
+  std::ofstream(camera) << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 200\n"
+                           "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                           "   data: [ 250., 0., 160., 0., 250., 100., 0., 0., 1. ]\n";
+  const std::string mask = Path("camera.png");
+  const CommandResult run = Silpose("render " + models_ + "/bunny.obj --view 1,0,0 --camera " +
+                                    camera + " --distance 5 -o " + mask);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const cv::Mat image = cv::imread(mask, cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(image.cols, 320);
+  EXPECT_EQ(image.rows, 200);
+  EXPECT_GT(cv::countNonZero(image), 1000);
+}
+
+// Bad input: one clear line on stderr naming the file or parameter, a non-zero exit, no crash.
+TEST_F(CliTest, BadInputGivesOneClearLineAndANonZeroExit) {
+  const std::string empty_mask = Path("empty.png");
+  cv::imwrite(empty_mask, cv::Mat::zeros(50, 50, CV_8UC1));
+  const std::string not_a_database = Path("not.db");
+  std::ofstream(not_a_database) << "hello";
+  const std::string truncated = Path("truncated.db");
+  {
+    std::ifstream in(database_, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  const std::string garbage_mesh = Path("garbage.obj");
+  std::ofstream(garbage_mesh) << "this is not a mesh\n";
+  struct Case {
+    std::string arguments;
+    std::string expected;
+  };
+  const std::vector<Case> cases = {
+      {"build-db /nonexistent/thing.obj -o " + Path("x.db"), "/nonexistent/thing.obj"},
+      {"build-db " + garbage_mesh + " -o " + Path("x.db"), "garbage.obj"},
+      {"build-db " + models_ + "/bunny.obj -o " + Path("x.db") + " --views 2", "num_views"},
+      {"build-db " + models_ + "/bunny.obj -o " + Path("x.db") + " --signature-length 999", "999"},
+      {"build-db " + models_ + "/bunny.obj -o /nonexistent/dir/x.db --views 20",
+       "/nonexistent/dir/x.db"},
+      {"match -d " + database_ + " " + empty_mask, "empty.png: no usable silhouette"},
+      {"match -d " + database_ + " /nonexistent/mask.png", "/nonexistent/mask.png: no such file"},
+      {"match -d " + not_a_database + " " + empty_mask, "not.db: not a silpose view database"},
+      {"match -d " + truncated + " " + empty_mask, "truncated.db: truncated"},
+      {"match -d " + database_ + " " + empty_mask + " --top 0", "--top"},
+      {"render " + models_ + "/bunny.obj --view 0,0,0 -o " + Path("r.png"), "--view"},
+      {"render " + models_ + "/bunny.obj --view 1,2 -o " + Path("r.png"), "--view"},
+      {"render " + models_ + "/bunny.obj --camera /nonexistent/cam.yml -o " + Path("r.png"),
+       "cam.yml"},
+      {"render " + models_ + "/bunny.obj --resolution 5 -o " + Path("r.png"), "resolution"},
+      {"frobnicate", "frobnicate"},
+      {"match " + empty_mask, "--database"},
+  };
+  for (const Case& c : cases) {
+    const CommandResult run = Silpose(c.arguments);
+    EXPECT_NE(run.exit_code, 0) << c.arguments;
+    EXPECT_LT(run.exit_code, 128) << "crashed: " << c.arguments;
+    EXPECT_EQ(Lines(run.err), 1) << c.arguments << "\n" << run.err;
+    EXPECT_NE(run.err.find(c.expected), std::string::npos) << c.arguments << "\n" << run.err;
+  }
+}
+
+TEST_F(CliTest, DemoRunsOnTheSampleModelsAndFindsTheObjects) {
+  const CommandResult run = Silpose("demo --views 300 --queries 10 --threads 2 -o " + Path("demo"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("right object in"), std::string::npos) << run.out;
+  EXPECT_TRUE(std::filesystem::exists(Path("demo/demo.db")));
+  EXPECT_TRUE(std::filesystem::exists(Path("demo/query_009.png")));
+  // Single silhouettes of the five sample models at random poses: at least 8 of 10 right.
+  std::ifstream csv(Path("demo/demo.csv"));
+  std::string line;
+  std::getline(csv, line);
+  int rows = 0, right = 0;
+  while (std::getline(csv, line)) {
+    std::stringstream fields(line);
+    std::vector<std::string> values;
+    for (std::string value; std::getline(fields, value, ',');) values.push_back(value);
+    ASSERT_EQ(values.size(), 12u);
+    ++rows;
+    right += values[1] == values[6];
+  }
+  EXPECT_EQ(rows, 10);
+  EXPECT_GE(right, 8);
+}
+
+}  // namespace
+}  // namespace silpose
