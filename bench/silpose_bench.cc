@@ -19,6 +19,7 @@
 #include <random>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 
 namespace silpose {
@@ -70,7 +71,9 @@ std::vector<float> RandomSignature(std::mt19937& rng, int length) {
 
 void BM_Correlation(benchmark::State& state) {
   const int length = static_cast<int>(state.range(0));
-  CircularCorrelator correlator(length, static_cast<FftBackend>(state.range(1)));
+  CorrelationOptions options;
+  options.backend = static_cast<FftBackend>(state.range(1));
+  CircularCorrelator correlator(length, options);
   std::mt19937 rng(1);
   const SignatureSpectrum a = correlator.Transform(RandomSignature(rng, length));
   const SignatureSpectrum b = correlator.Transform(RandomSignature(rng, length));

@@ -39,7 +39,26 @@ CircularCorrelator::CircularCorrelator(int length, const CorrelationOptions& opt
   const double sigma_rad = options.smoothing_deg * std::numbers::pi / 180.0;
   for (size_t k = 0; k < window_.size(); ++k) {
     const double ks = static_cast<double>(k) * sigma_rad;
-    window_[k] = static_cast<float>(std::exp(-0.5 * ks * ks));
+    // Exactly 0 where negligible: tiny weights would make denormal floats, which are very slow.
+    const double weight = std::exp(-0.5 * ks * ks);
+    window_[k] = weight < 1e-6 ? 0.0f : static_cast<float>(weight);
+    if (window_[k] > 0.0f) bound_length_ = k + 1;
+  }
+  // Smoothed signatures are band-limited to bound_length_ harmonics, and so is their correlation:
+  // L >= 2 * bound_length_ samples of it carry all of it. The peak is then searched on those and
+  // refined on the exact band-limited correlation (Peak), which is much cheaper than M samples.
+  int coarse = 2 * static_cast<int>(bound_length_) + 2;
+  auto smooth_number = [](int n) {  // only factors 2, 3, 5: fast for every FFT backend
+    for (int f : {2, 3, 5}) {
+      while (n % f == 0) n /= f;
+    }
+    return n == 1;
+  };
+  while (coarse % 2 != 0 || !smooth_number(coarse)) ++coarse;
+  if (coarse < length_ / 2) {
+    coarse_fft_ = RealFft::Create(coarse, options.backend);
+    coarse_products_.assign(static_cast<size_t>(coarse / 2 + 1), {0.0f, 0.0f});
+    coarse_samples_.resize(static_cast<size_t>(coarse));
   }
 }
 
@@ -83,7 +102,9 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
     const auto renormalise = static_cast<float>(1.0 / std::sqrt(energy));
     for (auto& c : spectrum->coefficients) c *= renormalise;
   }
-  for (size_t k = 0; k < half; ++k) {
+  // Harmonics the smoothing removed contribute nothing to the bound: leave them out of it.
+  spectrum->magnitudes.resize(bound_length_);
+  for (size_t k = 0; k < bound_length_; ++k) {
     const float weight = (!weighted || k == 0 || k == half - 1) ? 1.0f : 2.0f;
     spectrum->magnitudes[k] = weight * std::abs(spectrum->coefficients[k]);
   }
@@ -108,6 +129,11 @@ void CircularCorrelator::Correlate(const SignatureSpectrum& query,
 
 CorrelationPeak CircularCorrelator::Peak(const SignatureSpectrum& query,
                                          const SignatureSpectrum& reference) {
+  return coarse_fft_ ? BandLimitedPeak(query, reference) : FullPeak(query, reference);
+}
+
+CorrelationPeak CircularCorrelator::FullPeak(const SignatureSpectrum& query,
+                                             const SignatureSpectrum& reference) {
   Correlate(query, reference, real_scratch_);
   const float* e = real_scratch_.data();
   int best = 0;
@@ -124,6 +150,58 @@ CorrelationPeak CircularCorrelator::Peak(const SignatureSpectrum& query,
   if (shift < 0.0f) shift += static_cast<float>(length_);
   if (shift >= static_cast<float>(length_)) shift -= static_cast<float>(length_);
   return {std::min(peak, 1.0f), shift};
+}
+
+CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& query,
+                                                    const SignatureSpectrum& reference) {
+  const size_t harmonics = bound_length_;
+  SILPOSE_ASSERT(query.coefficients.size() > harmonics &&
+                 reference.coefficients.size() > harmonics);
+  for (size_t k = 0; k < harmonics; ++k) {
+    coarse_products_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
+  }
+  // The correlation at L evenly spaced shifts (s = j M / L), all of it for a band-limited signal.
+  coarse_fft_->Inverse(coarse_products_.data(), coarse_samples_.data());
+  const int coarse = coarse_fft_->length();
+  int best = 0;
+  for (int j = 1; j < coarse; ++j) {
+    if (coarse_samples_[static_cast<size_t>(j)] > coarse_samples_[static_cast<size_t>(best)]) {
+      best = j;
+    }
+  }
+  const double before = coarse_samples_[static_cast<size_t>((best + coarse - 1) % coarse)];
+  const double after = coarse_samples_[static_cast<size_t>((best + 1) % coarse)];
+  const double peak = coarse_samples_[static_cast<size_t>(best)];
+  const double curvature = before - 2.0 * peak + after;
+  double offset = 0.0;
+  if (curvature < 0.0) offset = std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5);
+  const double step = static_cast<double>(length_) / coarse;  // bins per coarse sample
+  double shift = (best + offset) * step;
+  // A Newton step on e(s) = sum_k w_k Re(P_k exp(i w k s)), w = 2 pi / M, with its exact derivatives.
+  const double omega = 2.0 * std::numbers::pi / length_;
+  double score = peak;
+  for (int iteration = 0; iteration < 2; ++iteration) {
+    const std::complex<double> rotation = std::polar(1.0, omega * shift);
+    std::complex<double> phase(1.0, 0.0);
+    double value = 0.0, slope = 0.0, bend = 0.0;
+    for (size_t k = 0; k < harmonics; ++k) {
+      const std::complex<double> term = std::complex<double>(coarse_products_[k]) * phase;
+      const double weight = k == 0 ? 1.0 : 2.0;
+      const double frequency = omega * static_cast<double>(k);
+      value += weight * term.real();
+      slope -= weight * frequency * term.imag();
+      bend -= weight * frequency * frequency * term.real();
+      phase *= rotation;
+    }
+    score = value;
+    if (iteration == 1 || !(bend < 0.0)) break;
+    shift -= std::clamp(slope / bend, -step, step);
+  }
+  shift = std::fmod(shift, static_cast<double>(length_));
+  if (shift < 0.0) shift += length_;
+  auto shift_bins = static_cast<float>(shift);
+  if (shift_bins >= static_cast<float>(length_)) shift_bins = 0.0f;  // -tiny rounds up to M
+  return {static_cast<float>(std::min(score, 1.0)), shift_bins};
 }
 
 float CircularCorrelator::ScoreAtShift(const SignatureSpectrum& query,

@@ -40,9 +40,9 @@ struct CorrelationOptions {
 struct SignatureSpectrum {
   /// M/2 + 1 coefficients of the zero-mean, smoothed, unit-norm signature, scaled by 1/sqrt(M).
   std::vector<std::complex<float>> coefficients;
-  /// |coefficients[k]|, weighted by how often bin k occurs in the full spectrum (1 for k = 0 and
-  /// k = M/2, 2 otherwise) when `weighted` was asked for; the dot product of a weighted and an
-  /// unweighted magnitude vector is the upper bound above.
+  /// |coefficients[k]| for the harmonics the smoothing keeps, weighted by how often bin k occurs
+  /// in the full spectrum (1 for k = 0 and k = M/2, 2 otherwise) when `weighted` was asked for; the
+  /// dot product of a weighted and an unweighted magnitude vector is the upper bound above.
   std::vector<float> magnitudes;
   /// False if the signature was constant (no variance): every correlation with it is 0.
   bool has_variance = false;
@@ -72,7 +72,9 @@ class CircularCorrelator {
   /// The whole correlation e(n), n = 0..M-1, into `out` (M values).
   void Correlate(const SignatureSpectrum& query, const SignatureSpectrum& reference,
                  std::span<float> out);
-  /// max and argmax of e(n).
+  /// max and argmax of e. With smoothing the correlation is band-limited and its maximum is found
+  /// over continuous shifts (a short inverse FFT, then Newton steps on the exact band-limited e);
+  /// without, over the M integer shifts with a parabola through the peak.
   CorrelationPeak Peak(const SignatureSpectrum& query, const SignatureSpectrum& reference);
 
   /// e(n) at one shift, O(M), from the spectra (no FFT). Used to score a known roll.
@@ -85,13 +87,23 @@ class CircularCorrelator {
                                              std::span<const float> reference);
 
  private:
+  CorrelationPeak FullPeak(const SignatureSpectrum& query, const SignatureSpectrum& reference);
+  CorrelationPeak BandLimitedPeak(const SignatureSpectrum& query,
+                                  const SignatureSpectrum& reference);
+
   int length_;
   CorrelationOptions options_;
   std::unique_ptr<RealFft> fft_;
   /// Gaussian weight of each harmonic (all 1 without smoothing).
   std::vector<float> window_;
+  /// Harmonics with a non-zero weight (the length of SignatureSpectrum::magnitudes).
+  size_t bound_length_ = 0;
   std::vector<float> real_scratch_;
   std::vector<std::complex<float>> complex_scratch_;
+  /// The short transform for band-limited correlations (null without smoothing).
+  std::unique_ptr<RealFft> coarse_fft_;
+  std::vector<std::complex<float>> coarse_products_;
+  std::vector<float> coarse_samples_;
 };
 
 /// Upper bound of max_n e(n): dot product of a weighted and an unweighted magnitude vector.

@@ -173,9 +173,9 @@ std::vector<CorrelationOptions> Variants() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, CorrelatorTest, ::testing::ValuesIn(Variants()),
-                         [](const auto& info) {
-                           return std::string(ToString(info.param.backend)) + "_smoothing" +
-                                  std::to_string(static_cast<int>(info.param.smoothing_deg));
+                         [](const auto& test_info) {
+                           return std::string(ToString(test_info.param.backend)) + "_smoothing" +
+                                  std::to_string(static_cast<int>(test_info.param.smoothing_deg));
                          });
 
 TEST(CorrelationOptions, NegativeOrHugeSmoothingIsAnError) {
