@@ -177,7 +177,8 @@ CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& que
   if (curvature < 0.0) offset = std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5);
   const double step = static_cast<double>(length_) / coarse;  // bins per coarse sample
   double shift = (best + offset) * step;
-  // A Newton step on e(s) = sum_k w_k Re(P_k exp(i w k s)), w = 2 pi / M, with its exact derivatives.
+  // A Newton step on e(s) = sum_k w_k Re(P_k exp(i w k s)), w = 2 pi / M, with its exact
+  // derivatives.
   const double omega = 2.0 * std::numbers::pi / length_;
   double score = peak;
   for (int iteration = 0; iteration < 2; ++iteration) {
