@@ -1,0 +1,753 @@
+#include "silpose/mesh/triangle_mesh.h"
+
+#include <assimp/config.h>
+#include <assimp/mesh.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <assimp/Importer.hpp>
+#include <bit>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <unordered_map>
+#include <utility>
+
+#include "silpose/util/error.h"
+
+// Formats are read by assimp, except OFF and PLY: assimp 5.2.5 hangs on a PLY file whose header is
+// cut off, reads past the end of truncated binary PLY data, accepts out-of-range PLY face indices,
+// aborts (ai_assert) on truncated OFF files and drops OFF faces of more than 9 vertices. Both
+// formats are simple, so they are read here, with every count and index checked against the file.
+
+namespace silpose {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Vertices (in the output frame) and the triangles of one part of a file, indices into
+/// `positions`.
+struct Part {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<std::array<uint32_t, 3>> triangles;
+};
+
+// Hashable exact identity of a vertex position (-0 and +0 are the same position).
+struct PositionKey {
+  std::array<uint32_t, 3> bits;
+  bool operator==(const PositionKey&) const = default;
+};
+
+struct PositionKeyHash {
+  size_t operator()(const PositionKey& key) const {
+    uint64_t hash = 1469598103934665603ull;  // FNV-1a over the three words
+    for (uint32_t word : key.bits) hash = (hash ^ word) * 1099511628211ull;
+    return static_cast<size_t>(hash);
+  }
+};
+
+/// Merges parts into one mesh. Only vertices used by a triangle are kept, and vertices with exactly
+/// equal positions are shared, also across parts (so a cube has 8 vertices in every format).
+class MeshBuilder {
+ public:
+  MeshBuilder(const fs::path& path, TriangleMesh& mesh) : path_(path), mesh_(mesh) {}
+
+  void Add(const Part& part) {
+    constexpr uint32_t kUnset = std::numeric_limits<uint32_t>::max();
+    output_index_.assign(part.positions.size(), kUnset);
+    for (const std::array<uint32_t, 3>& triangle : part.triangles) {
+      std::array<uint32_t, 3> output;
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t v = triangle[k];
+        SILPOSE_ASSERT(v < part.positions.size());
+        if (output_index_[v] == kUnset) output_index_[v] = AddVertex(part.positions[v]);
+        output[k] = output_index_[v];
+      }
+      mesh_.triangles.push_back(output);
+    }
+  }
+
+ private:
+  uint32_t AddVertex(const Eigen::Vector3d& position) {
+    const Eigen::Vector3f p = position.cast<float>();
+    if (!p.allFinite()) {
+      ThrowError(path_.string(), ": vertex ", mesh_.vertices.size(),
+                 " has a non-finite coordinate");
+    }
+    const PositionKey key{{std::bit_cast<uint32_t>(p.x() + 0.0f),
+                           std::bit_cast<uint32_t>(p.y() + 0.0f),
+                           std::bit_cast<uint32_t>(p.z() + 0.0f)}};
+    const auto [it, inserted] =
+        index_of_position_.try_emplace(key, static_cast<uint32_t>(mesh_.vertices.size()));
+    if (inserted) {
+      if (mesh_.vertices.size() == std::numeric_limits<uint32_t>::max()) {
+        ThrowError(path_.string(), ": too many vertices");
+      }
+      mesh_.vertices.push_back(p);
+    }
+    return it->second;
+  }
+
+  const fs::path& path_;
+  TriangleMesh& mesh_;
+  std::unordered_map<PositionKey, uint32_t, PositionKeyHash> index_of_position_;
+  std::vector<uint32_t> output_index_;  // per vertex of the current part
+};
+
+[[noreturn]] void ThrowUnreadable(const fs::path& path, const std::string& reason) {
+  ThrowError(path.string(), ": cannot read mesh: ", reason);
+}
+
+/// Appends the triangles of a polygon with the given vertex indices, as a fan (as OFF and PLY
+/// polygons are convex in practice). Polygons of fewer than 3 vertices (points, lines) are dropped.
+void AddPolygon(const std::vector<uint32_t>& polygon, Part& part) {
+  for (size_t k = 2; k < polygon.size(); ++k) {
+    part.triangles.push_back({polygon[0], polygon[k - 1], polygon[k]});
+  }
+}
+
+void CheckIndices(const fs::path& path, const Part& part) {
+  for (const std::array<uint32_t, 3>& triangle : part.triangles) {
+    for (uint32_t v : triangle) {
+      if (v >= part.positions.size()) {
+        ThrowUnreadable(path, "a face references vertex " + std::to_string(v) + " but there are " +
+                                  std::to_string(part.positions.size()) + " vertices");
+      }
+    }
+  }
+}
+
+// File text for an error message: printable ASCII only, at most 40 characters.
+std::string Quote(std::string_view text) {
+  std::string quoted = "'";
+  for (char c : text.substr(0, 40)) quoted += (c >= ' ' && c <= '~') ? c : '?';
+  return quoted + (text.size() > 40 ? "...'" : "'");
+}
+
+bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f'; }
+
+std::optional<double> ParseNumber(std::string_view token) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  double value = 0.0;
+  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), value);
+  if (error != std::errc() || end != token.data() + token.size()) return std::nullopt;
+  return value;
+}
+
+std::optional<uint32_t> ParseIndex(double value) {
+  if (!(value >= 0.0 && value <= std::numeric_limits<uint32_t>::max()) ||
+      value != std::floor(value)) {
+    return std::nullopt;
+  }
+  return static_cast<uint32_t>(value);
+}
+
+// ------------------------------------------------------------------------------------------------
+// OFF (Geomview object file format): "[ST][C][N]OFF", then "vertices faces edges", then one vertex
+// per line (x y z, anything after ignored), then one face per line (n i_1 ... i_n, colour ignored).
+
+std::vector<std::string_view> SplitTokens(std::string_view line) {
+  std::vector<std::string_view> tokens;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && IsSpace(line[i])) ++i;
+    const size_t start = i;
+    while (i < line.size() && !IsSpace(line[i])) ++i;
+    if (i > start) tokens.push_back(line.substr(start, i - start));
+  }
+  return tokens;
+}
+
+// The token lists of the lines with content, comments removed.
+std::vector<std::vector<std::string_view>> ContentLines(std::string_view text) {
+  std::vector<std::vector<std::string_view>> lines;
+  while (!text.empty()) {
+    const size_t end = std::min(text.find('\n'), text.size());
+    std::string_view line = text.substr(0, end);
+    text.remove_prefix(std::min(end + 1, text.size()));
+    line = line.substr(0, std::min(line.find('#'), line.size()));
+    std::vector<std::string_view> tokens = SplitTokens(line);
+    if (!tokens.empty()) lines.push_back(std::move(tokens));
+  }
+  return lines;
+}
+
+// Whether `token` is an OFF keyword: optional ST, C, N, 4, n prefixes, then OFF.
+bool IsOffKeyword(std::string_view token) {
+  for (std::string_view prefix : {"ST", "C", "N", "4", "n"}) {
+    if (token.starts_with(prefix)) token.remove_prefix(prefix.size());
+  }
+  return token == "OFF";
+}
+
+Part ReadOff(const fs::path& path, std::string_view text) {
+  const std::vector<std::vector<std::string_view>> lines = ContentLines(text);
+  size_t line = 0;
+  size_t token = 0;
+  if (!lines.empty() && IsOffKeyword(lines[0][0])) {
+    const std::string_view keyword = lines[0][0];
+    if (keyword.find('4') != std::string_view::npos ||
+        keyword.find('n') != std::string_view::npos) {
+      ThrowUnreadable(path, "OFF variant " + Quote(keyword) + " is not supported");
+    }
+    if (lines[0].size() > 1 && lines[0][1] == "BINARY") {
+      ThrowUnreadable(path, "binary OFF is not supported");
+    }
+    if (lines[0].size() > 1) {
+      token = 1;  // the counts follow the keyword on the same line
+    } else {
+      line = 1;
+    }
+  }
+  if (line >= lines.size() || lines[line].size() < token + 2) {
+    ThrowUnreadable(path, "OFF header has no vertex and face counts");
+  }
+  const std::optional<double> vertex_count = ParseNumber(lines[line][token]);
+  const std::optional<double> face_count = ParseNumber(lines[line][token + 1]);
+  const std::optional<uint32_t> vertices = vertex_count ? ParseIndex(*vertex_count) : std::nullopt;
+  const std::optional<uint32_t> faces = face_count ? ParseIndex(*face_count) : std::nullopt;
+  if (!vertices || !faces) ThrowUnreadable(path, "OFF header has invalid vertex or face counts");
+  ++line;
+  if (lines.size() - line < size_t{*vertices} + *faces) {
+    ThrowUnreadable(path, "OFF file has fewer lines than its " + std::to_string(*vertices) +
+                              " vertices and " + std::to_string(*faces) +
+                              " faces need (truncated file?)");
+  }
+
+  Part part;
+  part.positions.reserve(*vertices);
+  for (uint32_t v = 0; v < *vertices; ++v, ++line) {
+    const std::vector<std::string_view>& tokens = lines[line];
+    Eigen::Vector3d position;
+    for (int k = 0; k < 3; ++k) {
+      const std::optional<double> value =
+          k < static_cast<int>(tokens.size()) ? ParseNumber(tokens[k]) : std::nullopt;
+      if (!value) ThrowUnreadable(path, "OFF vertex " + std::to_string(v) + " is not x y z");
+      position[k] = *value;
+    }
+    part.positions.push_back(position);
+  }
+  std::vector<uint32_t> polygon;
+  for (uint32_t f = 0; f < *faces; ++f, ++line) {
+    const std::vector<std::string_view>& tokens = lines[line];
+    const std::optional<double> count = ParseNumber(tokens[0]);
+    const std::optional<uint32_t> n = count ? ParseIndex(*count) : std::nullopt;
+    if (!n || tokens.size() - 1 < *n) {
+      ThrowUnreadable(path, "OFF face " + std::to_string(f) + " is not n i_1 ... i_n");
+    }
+    polygon.clear();
+    for (uint32_t k = 1; k <= *n; ++k) {
+      const std::optional<double> value = ParseNumber(tokens[k]);
+      const std::optional<uint32_t> index = value ? ParseIndex(*value) : std::nullopt;
+      if (!index) ThrowUnreadable(path, "OFF face " + std::to_string(f) + " has a bad index");
+      polygon.push_back(*index);
+    }
+    AddPolygon(polygon, part);
+  }
+  CheckIndices(path, part);
+  return part;
+}
+
+// ------------------------------------------------------------------------------------------------
+// PLY (Stanford polygon file format), ASCII and binary: element "vertex" with properties x, y, z
+// and element "face" with list property "vertex_indices" (or "vertex_index"); other data is
+// skipped.
+
+enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+
+std::optional<PlyType> ParsePlyType(std::string_view name) {
+  static const std::pair<std::string_view, PlyType> kTypes[] = {
+      {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+      {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+      {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+      {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+      {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+      {"float64", PlyType::kFloat64}};
+  for (const auto& [type_name, type] : kTypes) {
+    if (name == type_name) return type;
+  }
+  return std::nullopt;
+}
+
+size_t SizeOf(PlyType type) {
+  switch (type) {
+    case PlyType::kInt8:
+    case PlyType::kUint8:
+      return 1;
+    case PlyType::kInt16:
+    case PlyType::kUint16:
+      return 2;
+    case PlyType::kInt32:
+    case PlyType::kUint32:
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
+  }
+  return 0;
+}
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::kFloat32;  // of the value, or of the list items
+  bool is_list = false;
+  PlyType count_type = PlyType::kUint8;
+};
+
+struct PlyElement {
+  std::string name;
+  uint64_t count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+enum class PlyFormat { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
+
+/// Reads the values of the PLY body, in ASCII or binary, never past its end.
+class PlyReader {
+ public:
+  PlyReader(const fs::path& path, std::string_view body, PlyFormat format)
+      : path_(path), body_(body), format_(format) {}
+
+  double Read(PlyType type) {
+    if (format_ == PlyFormat::kAscii) return ReadAscii();
+    const size_t size = SizeOf(type);
+    if (body_.size() - position_ < size) ThrowTruncated();
+    unsigned char bytes[8];
+    std::memcpy(bytes, body_.data() + position_, size);
+    position_ += size;
+    const bool swap =
+        (format_ == PlyFormat::kBinaryLittleEndian) != (std::endian::native == std::endian::little);
+    if (swap) std::reverse(bytes, bytes + size);
+    return Decode(type, bytes);
+  }
+
+  /// Throws if fewer than `count` values of `type` can be left (an ASCII value takes at least one
+  /// byte), before anything is allocated for them.
+  void Require(uint64_t count, PlyType type) const {
+    const size_t value_size = format_ == PlyFormat::kAscii ? 1 : SizeOf(type);
+    if (count > (body_.size() - position_) / value_size) ThrowTruncated();
+  }
+
+  [[noreturn]] void ThrowTruncated() const {
+    ThrowUnreadable(path_, "PLY data ends early (truncated file?)");
+  }
+
+ private:
+  double ReadAscii() {
+    while (position_ < body_.size() && IsSpace(body_[position_])) ++position_;
+    const size_t start = position_;
+    while (position_ < body_.size() && !IsSpace(body_[position_])) ++position_;
+    if (position_ == start) ThrowTruncated();
+    const std::optional<double> value = ParseNumber(body_.substr(start, position_ - start));
+    if (!value) {
+      ThrowUnreadable(
+          path_, "PLY value " + Quote(body_.substr(start, position_ - start)) + " is not a number");
+    }
+    return *value;
+  }
+
+  template <typename T>
+  static double As(const unsigned char* bytes) {
+    T value;
+    std::memcpy(&value, bytes, sizeof(T));
+    return static_cast<double>(value);
+  }
+
+  static double Decode(PlyType type, const unsigned char* bytes) {
+    switch (type) {
+      case PlyType::kInt8:
+        return As<int8_t>(bytes);
+      case PlyType::kUint8:
+        return As<uint8_t>(bytes);
+      case PlyType::kInt16:
+        return As<int16_t>(bytes);
+      case PlyType::kUint16:
+        return As<uint16_t>(bytes);
+      case PlyType::kInt32:
+        return As<int32_t>(bytes);
+      case PlyType::kUint32:
+        return As<uint32_t>(bytes);
+      case PlyType::kFloat32:
+        return As<float>(bytes);
+      case PlyType::kFloat64:
+        return As<double>(bytes);
+    }
+    return 0.0;
+  }
+
+  const fs::path& path_;
+  std::string_view body_;
+  PlyFormat format_;
+  size_t position_ = 0;
+};
+
+bool StartsWithCaseInsensitive(std::string_view text, std::string_view lower_case_prefix) {
+  if (text.size() < lower_case_prefix.size()) return false;
+  for (size_t k = 0; k < lower_case_prefix.size(); ++k) {
+    if (std::tolower(static_cast<unsigned char>(text[k])) != lower_case_prefix[k]) return false;
+  }
+  return true;
+}
+
+[[noreturn]] void ThrowBadPlyHeaderLine(const fs::path& path, std::string_view line) {
+  if (line.ends_with('\r')) line.remove_suffix(1);
+  ThrowUnreadable(path, "bad PLY header line " + Quote(line));
+}
+
+// Whether the file starts like a PLY file (case-insensitively, as assimp's PLY reader checks).
+bool IsPlyMagic(std::string_view text) { return StartsWithCaseInsensitive(text, "ply"); }
+
+Part ReadPly(const fs::path& path, std::string_view text) {
+  const std::string_view first_line = text.substr(0, std::min(text.find('\n'), text.size()));
+  const std::vector<std::string_view> magic = SplitTokens(first_line);
+  if (magic.size() != 1 || magic[0].size() != 3 || !IsPlyMagic(magic[0])) {
+    ThrowUnreadable(path, "not a PLY file (its first line is not 'ply')");
+  }
+
+  // Header: one keyword line at a time up to "end_header".
+  std::optional<PlyFormat> format;
+  std::vector<PlyElement> elements;
+  size_t offset = first_line.size() + 1;
+  bool header_ended = false;
+  while (!header_ended) {
+    const size_t end = text.find('\n', offset);
+    if (end == std::string_view::npos) {
+      ThrowUnreadable(path, "PLY header has no end_header line (truncated file?)");
+    }
+    const std::string_view line = text.substr(offset, end - offset);
+    const std::vector<std::string_view> tokens = SplitTokens(line);
+    offset = end + 1;
+    if (tokens.empty()) continue;
+    const std::string_view keyword = tokens[0];
+    if (keyword == "comment" || keyword == "obj_info") {
+      continue;
+    } else if (keyword == "end_header") {
+      header_ended = true;
+    } else if (keyword == "format") {
+      if (tokens.size() < 2) ThrowBadPlyHeaderLine(path, line);
+      if (tokens[1] == "ascii") {
+        format = PlyFormat::kAscii;
+      } else if (tokens[1] == "binary_little_endian") {
+        format = PlyFormat::kBinaryLittleEndian;
+      } else if (tokens[1] == "binary_big_endian") {
+        format = PlyFormat::kBinaryBigEndian;
+      } else {
+        ThrowUnreadable(path, "unknown PLY format " + Quote(tokens[1]));
+      }
+    } else if (keyword == "element") {
+      if (tokens.size() < 3) ThrowBadPlyHeaderLine(path, line);
+      PlyElement element;
+      element.name = tokens[1];
+      const auto [ptr, error] =
+          std::from_chars(tokens[2].data(), tokens[2].data() + tokens[2].size(), element.count);
+      if (error != std::errc() || ptr != tokens[2].data() + tokens[2].size()) {
+        ThrowBadPlyHeaderLine(path, line);
+      }
+      elements.push_back(std::move(element));
+    } else if (keyword == "property") {
+      if (elements.empty()) ThrowUnreadable(path, "PLY header has a property before any element");
+      PlyProperty property;
+      if (tokens.size() >= 5 && tokens[1] == "list") {
+        const std::optional<PlyType> count_type = ParsePlyType(tokens[2]);
+        const std::optional<PlyType> item_type = ParsePlyType(tokens[3]);
+        if (!count_type || !item_type) ThrowBadPlyHeaderLine(path, line);
+        property = {std::string(tokens[4]), *item_type, true, *count_type};
+      } else if (tokens.size() >= 3) {
+        const std::optional<PlyType> type = ParsePlyType(tokens[1]);
+        if (!type) ThrowBadPlyHeaderLine(path, line);
+        property = {std::string(tokens[2]), *type, false, PlyType::kUint8};
+      } else {
+        ThrowBadPlyHeaderLine(path, line);
+      }
+      elements.back().properties.push_back(std::move(property));
+    } else {
+      ThrowBadPlyHeaderLine(path, line);
+    }
+  }
+  if (!format) ThrowUnreadable(path, "PLY header has no format line");
+
+  Part part;
+  std::vector<uint32_t> polygon;
+  PlyReader reader(path, text.substr(offset), *format);
+  for (const PlyElement& element : elements) {
+    if (element.properties.empty()) continue;  // no data to read
+    const bool is_vertex = element.name == "vertex";
+    const bool is_face = element.name == "face";
+    std::array<int, 3> xyz = {-1, -1, -1};  // property index of x, y, z
+    int indices = -1;                       // property index of the face's vertex list
+    for (size_t p = 0; p < element.properties.size(); ++p) {
+      const PlyProperty& property = element.properties[p];
+      if (is_vertex && !property.is_list) {
+        for (int k = 0; k < 3; ++k) {
+          if (property.name.size() == 1 && property.name[0] == "xyz"[k]) {
+            xyz[k] = static_cast<int>(p);
+          }
+        }
+      }
+      if (is_face && property.is_list && indices < 0 &&
+          (property.name == "vertex_indices" || property.name == "vertex_index")) {
+        indices = static_cast<int>(p);
+      }
+    }
+    if (is_vertex && std::find(xyz.begin(), xyz.end(), -1) != xyz.end()) {
+      ThrowUnreadable(path, "PLY vertex element has no x, y and z properties");
+    }
+    if (is_face && indices < 0) {
+      ThrowUnreadable(path, "PLY face element has no vertex_indices list");
+    }
+    if (is_vertex) {
+      if (element.count > std::numeric_limits<uint32_t>::max()) reader.ThrowTruncated();
+      reader.Require(element.count * element.properties.size(), PlyType::kUint8);
+      part.positions.reserve(part.positions.size() + element.count);
+    }
+    for (uint64_t i = 0; i < element.count; ++i) {
+      Eigen::Vector3d position = Eigen::Vector3d::Zero();
+      for (size_t p = 0; p < element.properties.size(); ++p) {
+        const PlyProperty& property = element.properties[p];
+        if (!property.is_list) {
+          const double value = reader.Read(property.type);
+          for (int k = 0; k < 3; ++k) {
+            if (xyz[k] == static_cast<int>(p)) position[k] = value;
+          }
+          continue;
+        }
+        const std::optional<uint32_t> count = ParseIndex(reader.Read(property.count_type));
+        if (!count) ThrowUnreadable(path, "PLY list has a bad length");
+        reader.Require(*count, property.type);
+        const bool is_polygon = static_cast<int>(p) == indices;
+        if (is_polygon) polygon.clear();
+        for (uint32_t k = 0; k < *count; ++k) {
+          const double value = reader.Read(property.type);
+          if (!is_polygon) continue;
+          const std::optional<uint32_t> index = ParseIndex(value);
+          if (!index) ThrowUnreadable(path, "PLY face " + std::to_string(i) + " has a bad index");
+          polygon.push_back(*index);
+        }
+        if (is_polygon) AddPolygon(polygon, part);
+      }
+      if (is_vertex) part.positions.push_back(position);
+    }
+  }
+  CheckIndices(path, part);
+  return part;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Everything else: assimp.
+
+Eigen::Affine3d ToEigen(const aiMatrix4x4& m) {
+  Eigen::Affine3d transform = Eigen::Affine3d::Identity();
+  transform.matrix() << m.a1, m.a2, m.a3, m.a4,  //
+      m.b1, m.b2, m.b3, m.b4,                    //
+      m.c1, m.c2, m.c3, m.c4,                    //
+      0.0, 0.0, 0.0, 1.0;
+  return transform;
+}
+
+// Runs an assimp step that returns the scene, or null with the reason in the importer's error.
+template <typename Step>
+const aiScene* RunAssimp(const fs::path& path, const Assimp::Importer& importer, const Step& step) {
+  const aiScene* scene = nullptr;
+  try {
+    scene = step();
+  } catch (const std::exception& exception) {  // assimp normally catches its own exceptions
+    ThrowUnreadable(path, exception.what());
+  }
+  if (scene == nullptr) {
+    const std::string reason = importer.GetErrorString();
+    ThrowUnreadable(path, reason.empty() ? "unknown assimp error" : reason);
+  }
+  return scene;
+}
+
+bool HasPolygons(const aiScene& scene) {
+  if (scene.mMeshes == nullptr) return false;
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    const aiMesh* mesh = scene.mMeshes[m];
+    if (mesh != nullptr && mesh->mNumFaces > 0 &&
+        (mesh->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON))) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Adds every mesh instance of the node tree, placed by the product of the node transforms down
+// from the root, as one part.
+void AddAssimpScene(const aiScene& scene, MeshBuilder& builder) {
+  // Depth-first walk with an explicit stack: a deep node tree cannot overflow the call stack.
+  std::vector<std::pair<const aiNode*, Eigen::Affine3d>> stack;
+  stack.emplace_back(scene.mRootNode, ToEigen(scene.mRootNode->mTransformation));
+  Part part;
+  while (!stack.empty()) {
+    const auto [node, transform] = stack.back();
+    stack.pop_back();
+    for (unsigned c = 0; c < node->mNumChildren; ++c) {
+      const aiNode* child = node->mChildren[c];
+      stack.emplace_back(child, transform * ToEigen(child->mTransformation));
+    }
+    for (unsigned m = 0; m < node->mNumMeshes; ++m) {
+      SILPOSE_ASSERT(node->mMeshes[m] < scene.mNumMeshes);
+      const aiMesh& mesh = *scene.mMeshes[node->mMeshes[m]];
+      if (!(mesh.mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;  // points, lines
+      part.positions.resize(mesh.mNumVertices);
+      for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
+        const aiVector3D& p = mesh.mVertices[v];
+        part.positions[v] = transform * Eigen::Vector3d(p.x, p.y, p.z);
+      }
+      part.triangles.clear();
+      for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
+        const aiFace& face = mesh.mFaces[f];
+        if (face.mNumIndices != 3) continue;  // a point or line among the triangles
+        part.triangles.push_back({face.mIndices[0], face.mIndices[1], face.mIndices[2]});
+      }
+      builder.Add(part);
+    }
+  }
+}
+
+void ReadWithAssimp(const fs::path& path, MeshBuilder& builder) {
+  Assimp::Importer importer;  // no assimp DefaultLogger is created, so assimp prints nothing
+  // Keep the file's own axes for Collada (assimp would otherwise rotate Z-up files to Y-up). No
+  // unit scaling: aiProcess_GlobalScale is not requested and FBX is not converted to metres.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
+  importer.SetPropertyBool(AI_CONFIG_FBX_CONVERT_TO_M, false);
+  importer.SetPropertyBool(AI_CONFIG_PP_PTV_NORMALIZE, false);
+  importer.SetPropertyFloat(AI_CONFIG_GLOBAL_SCALE_FACTOR_KEY, 1.0f);
+  // Skeleton-only files must not turn into a made-up bone mesh.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
+
+  // Import without post-processing first, so that a file without polygons (e.g. a point cloud,
+  // which assimp's validation rejects as "contains no faces") is reported as having no triangles.
+  const aiScene* scene =
+      RunAssimp(path, importer, [&] { return importer.ReadFile(path.string(), 0); });
+  if (!HasPolygons(*scene)) ThrowError(path.string(), ": mesh has no triangles");
+  // Validate before any other step: a corrupt scene from a malformed file (null pointers, faces
+  // without indices, out-of-range indices) becomes an error rather than an assimp assertion abort.
+  scene = RunAssimp(path, importer,
+                    [&] { return importer.ApplyPostProcessing(aiProcess_ValidateDataStructure); });
+  // Polygons become triangles, vertices identical in every attribute are shared, and each mesh
+  // holds one primitive type. Deliberately absent: aiProcess_GlobalScale,
+  // aiProcess_PreTransformVertices (node transforms are applied while merging),
+  // aiProcess_MakeLeftHanded and anything else that changes units or axes.
+  scene = RunAssimp(path, importer, [&] {
+    return importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                        aiProcess_SortByPType);
+  });
+  if (scene->mRootNode == nullptr) ThrowUnreadable(path, "the file has no scene graph");
+  AddAssimpScene(*scene, builder);
+}
+
+// The first `max_bytes` bytes of the file (all of it by default).
+std::string ReadFileBytes(const fs::path& path,
+                          size_t max_bytes = std::numeric_limits<size_t>::max()) {
+  std::error_code error;
+  const fs::file_status status = fs::status(path, error);
+  if (status.type() == fs::file_type::not_found) ThrowError(path.string(), ": no such file");
+  if (error) ThrowError(path.string(), ": cannot access file: ", error.message());
+  if (status.type() == fs::file_type::directory) {
+    ThrowError(path.string(), ": is a directory, not a mesh file");
+  }
+  std::ifstream stream(path, std::ios::binary);
+  if (!stream) ThrowError(path.string(), ": cannot open file for reading");
+  std::string bytes;
+  std::vector<char> buffer(1 << 16);
+  while (stream && bytes.size() < max_bytes) {
+    stream.read(buffer.data(),
+                static_cast<std::streamsize>(std::min(buffer.size(), max_bytes - bytes.size())));
+    bytes.append(buffer.data(), static_cast<size_t>(stream.gcount()));
+  }
+  if (stream.bad()) ThrowError(path.string(), ": read error");
+  if (bytes.empty()) ThrowError(path.string(), ": file is empty");
+  return bytes;
+}
+
+std::string LowerCaseExtension(const fs::path& path) {
+  std::string extension = path.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension;
+}
+
+uint32_t LittleEndianU32(std::string_view bytes) {
+  uint32_t value = 0;
+  for (size_t k = 0; k < 4; ++k) value |= uint32_t{static_cast<unsigned char>(bytes[k])} << (8 * k);
+  return value;
+}
+
+// Binary glTF: assimp allocates whatever a (corrupt) header claims, up to 4 GB, before it notices
+// that the file is shorter; check the lengths against the file first.
+void CheckGlbHeader(const fs::path& path, std::string_view head) {
+  if (!head.starts_with("glTF")) return;
+  std::error_code error;
+  const uintmax_t file_size = fs::file_size(path, error);
+  if (error) return;  // let assimp report it
+  if (head.size() < 20 || LittleEndianU32(head.substr(8)) > file_size ||
+      LittleEndianU32(head.substr(12)) > file_size - 20) {
+    ThrowUnreadable(path, "binary glTF header lengths exceed the file size (truncated file?)");
+  }
+}
+
+// Whether the file is OFF by its extension or, when the extension is not a format's, by its first
+// word (or first three letters, which is how assimp would pick its OFF reader).
+bool IsOff(const std::string& extension, std::string_view text) {
+  if (extension == ".off") return true;
+  if (!extension.empty() && Assimp::Importer().IsExtensionSupported(extension)) return false;
+  const std::vector<std::vector<std::string_view>> first =
+      ContentLines(text.substr(0, std::min(text.find('\n'), text.size())));
+  return (!first.empty() && IsOffKeyword(first[0][0])) || StartsWithCaseInsensitive(text, "off");
+}
+
+}  // namespace
+
+Eigen::Vector3d TriangleMesh::Centre() const {
+  if (vertices.empty()) return Eigen::Vector3d::Zero();
+  Eigen::Vector3f lower = vertices.front();
+  Eigen::Vector3f upper = vertices.front();
+  for (const Eigen::Vector3f& v : vertices) {
+    lower = lower.cwiseMin(v);
+    upper = upper.cwiseMax(v);
+  }
+  return 0.5 * (lower.cast<double>() + upper.cast<double>());
+}
+
+double TriangleMesh::Radius() const {
+  const Eigen::Vector3d centre = Centre();
+  double squared = 0.0;
+  for (const Eigen::Vector3f& v : vertices) {
+    squared = std::max(squared, (v.cast<double>() - centre).squaredNorm());
+  }
+  return std::sqrt(squared);
+}
+
+TriangleMesh LoadMesh(const fs::path& path) {
+  TriangleMesh mesh;
+  mesh.name = path.stem().string();
+  MeshBuilder builder(path, mesh);
+  const std::string head = ReadFileBytes(path, 4096);  // enough to recognise the format
+  const std::string extension = LowerCaseExtension(path);
+  if (extension == ".ply" || IsPlyMagic(head)) {
+    builder.Add(ReadPly(path, ReadFileBytes(path)));
+  } else if (IsOff(extension, head)) {
+    builder.Add(ReadOff(path, ReadFileBytes(path)));
+  } else {
+    CheckGlbHeader(path, head);
+    ReadWithAssimp(path, builder);  // assimp reads the file itself (and any files it references)
+  }
+  if (mesh.triangles.empty()) ThrowError(path.string(), ": mesh has no triangles");
+  for (const std::array<uint32_t, 3>& triangle : mesh.triangles) {
+    for (uint32_t v : triangle) SILPOSE_ASSERT(v < mesh.vertices.size());
+  }
+  return mesh;
+}
+
+}  // namespace silpose
