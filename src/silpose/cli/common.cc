@@ -33,6 +33,12 @@ std::vector<std::filesystem::path> SampleModels(const std::string& override_dir)
     candidates.emplace_back(override_dir);
   } else {
     candidates.emplace_back(SILPOSE_SOURCE_MODELS_DIR);
+    // An installed binary: <prefix>/bin/silpose next to <prefix>/share/silpose/models.
+    std::error_code error;
+    const auto executable = std::filesystem::read_symlink("/proc/self/exe", error);
+    if (!error) {
+      candidates.push_back(executable.parent_path().parent_path() / "share" / "silpose" / "models");
+    }
     candidates.emplace_back(SILPOSE_INSTALL_MODELS_DIR);
   }
   for (const auto& directory : candidates) {

@@ -73,7 +73,10 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
     if (on_views_done) on_views_done(static_cast<int>(range.size()));
   };
   if (num_threads == 1) {
-    describe(tbb::blocked_range<int>(0, num_views));
+    constexpr int kChunk = 16;  // report progress as views are done
+    for (int begin = 0; begin < num_views; begin += kChunk) {
+      describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_views)));
+    }
   } else {
     tbb::task_arena arena(num_threads > 0 ? num_threads : tbb::task_arena::automatic);
     arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 8), describe); });
