@@ -96,15 +96,7 @@ void RunSelfMatchEval(const SelfMatchArguments& arguments) {
               "own+nb%", "passed%", "ambiguous", "circular");
   SelfMatchModelResult total;
   total.name = "all";
-  for (const auto& r : results) {
-    total.queries += r.queries;
-    total.right_model += r.right_model;
-    total.own_view += r.own_view;
-    total.own_or_neighbour += r.own_or_neighbour;
-    total.passed += r.passed;
-    total.failed_but_indistinguishable += r.failed_but_indistinguishable;
-    total.nearly_circular += r.nearly_circular;
-  }
+  for (const auto& r : results) total.Add(r);
   std::ofstream csv;
   if (!arguments.csv.empty()) {
     csv.open(arguments.csv);

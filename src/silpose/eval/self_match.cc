@@ -16,6 +16,18 @@
 
 namespace silpose {
 
+void SelfMatchModelResult::Add(const SelfMatchModelResult& other) {
+  queries += other.queries;
+  right_model += other.right_model;
+  own_view += other.own_view;
+  own_or_neighbour += other.own_or_neighbour;
+  passed += other.passed;
+  failed_but_indistinguishable += other.failed_but_indistinguishable;
+  nearly_circular += other.nearly_circular;
+  not_describable += other.not_describable;
+  failures.insert(failures.end(), other.failures.begin(), other.failures.end());
+}
+
 bool SelfMatchOptions::Check(std::string* error) const {
   auto fail = [error](const char* message) {
     if (error != nullptr) *error = message;
@@ -132,15 +144,7 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
         }
       }
       std::lock_guard lock(results_mutex);
-      result.queries += local.queries;
-      result.right_model += local.right_model;
-      result.own_view += local.own_view;
-      result.own_or_neighbour += local.own_or_neighbour;
-      result.passed += local.passed;
-      result.failed_but_indistinguishable += local.failed_but_indistinguishable;
-      result.nearly_circular += local.nearly_circular;
-      result.not_describable += local.not_describable;
-      result.failures.insert(result.failures.end(), local.failures.begin(), local.failures.end());
+      result.Add(local);
       if (on_progress) on_progress(done);
     };
     tbb::task_arena arena(options.num_threads > 0 ? options.num_threads

@@ -60,6 +60,9 @@ struct SelfMatchModelResult {
   int nearly_circular = 0;
   int not_describable = 0;
   std::vector<SelfMatchFailure> failures;
+
+  /// Adds the counts and failures of `other` (the name stays).
+  void Add(const SelfMatchModelResult& other);
 };
 
 /// Runs the experiment for `meshes` (same order and names as database.models).
