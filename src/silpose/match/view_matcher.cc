@@ -91,14 +91,8 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
       }
     }
   } else {
-    struct Bounded {
-      float bound;
-      int model;
-      int view;
-      bool operator<(const Bounded& other) const { return bound < other.bound; }
-    };
-    std::vector<Bounded> bounds;
-    bounds.reserve(models.size() * static_cast<size_t>(spectra_.num_views()));
+    std::vector<BoundedView>& bounds = bounds_;  // reused: no allocation per query
+    bounds.clear();
     for (int m : models) {
       for (int v = 0; v < spectra_.num_views(); ++v) {
         if (!spectra_.Usable(m, v)) continue;
@@ -112,7 +106,7 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
     // pruning exact.
     constexpr float kMargin = 1e-5f;
     while (!bounds.empty()) {
-      const Bounded next = bounds.front();
+      const BoundedView next = bounds.front();
       if (static_cast<int>(best.size()) == options.top_k &&
           best.top().score >= next.bound + kMargin) {
         break;

@@ -89,9 +89,17 @@ class ViewMatcher {
   const MatchStats& last_stats() const { return stats_; }
 
  private:
+  struct BoundedView {
+    float bound;
+    int model;
+    int view;
+    bool operator<(const BoundedView& other) const { return bound < other.bound; }
+  };
+
   const ViewSpectra& spectra_;
   CircularCorrelator correlator_;
   SignatureSpectrum query_;
+  std::vector<BoundedView> bounds_;
   MatchStats stats_;
 };
 
