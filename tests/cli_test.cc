@@ -149,6 +149,10 @@ TEST_F(CliTest, BadInputGivesOneClearLineAndANonZeroExit) {
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   }
+  const std::string camera_file = Path("bad_input_camera.yml");
+  std::ofstream(camera_file) << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 200\n"
+                                "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                                "   data: [ 250., 0., 160., 0., 250., 100., 0., 0., 1. ]\n";
   const std::string garbage_mesh = Path("garbage.obj");
   std::ofstream(garbage_mesh) << "this is not a mesh\n";
   struct Case {
@@ -169,6 +173,13 @@ TEST_F(CliTest, BadInputGivesOneClearLineAndANonZeroExit) {
       {"match -d " + database_ + " " + empty_mask + " --top 0", "--top"},
       {"render " + models_ + "/bunny.obj --view 0,0,0 -o " + Path("r.png"), "--view"},
       {"render " + models_ + "/bunny.obj --view 1,2 -o " + Path("r.png"), "--view"},
+      {"render " + models_ + "/bunny.obj --view 1,2,3, -o " + Path("r.png"), "--view"},
+      {"render " + models_ + "/bunny.obj --view=1e200,1e200,1e200 --camera " + camera_file +
+           " -o " + Path("r.png"),
+       "--view"},
+      {"build-db " + models_ + "/bunny.obj -o " + Path("x.db") + " --views 50 --neighbour-radius 8",
+       "neighbour_radius_factor"},
+      {"eval self-match " + models_ + "/bunny.obj --views 20 --scales 0.5abc", "--scales"},
       {"render " + models_ + "/bunny.obj --camera /nonexistent/cam.yml -o " + Path("r.png"),
        "cam.yml"},
       {"render " + models_ + "/bunny.obj --resolution 5 -o " + Path("r.png"), "resolution"},

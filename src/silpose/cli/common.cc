@@ -55,6 +55,8 @@ std::vector<std::filesystem::path> SampleModels(const std::string& override_dir)
 
 std::vector<double> ParseTriple(const std::string& text, const std::string& what) {
   std::vector<double> values;
+  if (!text.empty() && text.back() == ',')
+    ThrowError(what, " must be three numbers X,Y,Z, got '", text, "'");
   std::stringstream stream(text);
   std::string item;
   while (std::getline(stream, item, ',')) {

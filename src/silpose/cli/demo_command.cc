@@ -116,7 +116,9 @@ void RunDemo(const DemoArguments& arguments) {
       continue;
     }
     const auto match_start = std::chrono::steady_clock::now();
-    const MatchCandidate best = matcher.Match(silhouette.signature.radii, {.top_k = 1}).front();
+    const std::vector<MatchCandidate> top = matcher.Match(silhouette.signature.radii, {.top_k = 1});
+    if (top.empty()) ThrowError("no database view has a usable silhouette");
+    const MatchCandidate& best = top.front();
     match_ms_total +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - match_start)
             .count();

@@ -46,7 +46,9 @@ void RunSelfMatchEval(const SelfMatchArguments& arguments) {
   std::stringstream stream(arguments.scales);
   for (std::string item; std::getline(stream, item, ',');) {
     try {
-      options.scales.push_back(std::stod(item));
+      size_t used = 0;
+      options.scales.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
       ThrowError("--scales must be numbers separated by commas, got '", arguments.scales, "'");
     }

@@ -26,7 +26,10 @@ struct RenderArguments {
 void RunRender(const RenderArguments& arguments) {
   const std::vector<double> v = ParseTriple(arguments.view, "--view");
   const Eigen::Vector3d view_dir(v[0], v[1], v[2]);
-  if (view_dir.norm() < 1e-12) ThrowError("--view must not be the zero vector");
+  const double norm = view_dir.norm();
+  if (!(norm > 1e-12) || !std::isfinite(norm)) {
+    ThrowError("--view must be a non-zero direction of finite length, got '", arguments.view, "'");
+  }
   std::string problem;
   if (!arguments.render.Check(&problem)) ThrowError("invalid rendering options: ", problem);
   if (!std::isfinite(arguments.roll_deg)) ThrowError("--roll must be a finite number of degrees");
@@ -36,6 +39,7 @@ void RunRender(const RenderArguments& arguments) {
     RenderView(mesh, view_dir, arguments.roll_deg, arguments.render, &mask);
   } else {
     const PinholeCamera camera = ReadCameraFile(arguments.camera);
+    if (!(mesh.Radius() > 0.0)) ThrowError(arguments.model, ": the mesh has no extent");
     const Rigid3 camera_from_object =
         CameraFromObjectAtView(view_dir, arguments.roll_deg,
                                arguments.render.distance_in_radii * mesh.Radius(), mesh.Centre());

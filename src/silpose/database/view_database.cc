@@ -322,6 +322,10 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   if (!(sphere.typical_spacing_rad > 0.0) || !std::isfinite(sphere.typical_spacing_rad)) {
     in.Fail("view spacing ", sphere.typical_spacing_rad, " is not positive");
   }
+  auto need = [&in](uint64_t count, uint64_t element_size, const char* what) {
+    if (count * element_size > in.remaining()) in.Fail(what, " run past the end of the data");
+  };
+  need(num_views, 3 * sizeof(double), "view directions");
   sphere.directions.resize(num_views);
   for (auto& d : sphere.directions) {
     d.x() = in.Get<double>("view directions");
@@ -331,8 +335,9 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       in.Fail("a view direction is not a unit vector");
   }
   const auto num_edges = in.Get<uint32_t>("neighbour count");
-  if (num_edges > static_cast<uint64_t>(num_views) * 64)
+  if (num_edges > static_cast<uint64_t>(num_views) * ViewSphereOptions::kMaxMeanNeighbours)
     in.Fail("neighbour count ", num_edges, " out of range");
+  need(static_cast<uint64_t>(num_views) + 1 + num_edges, sizeof(uint32_t), "neighbour lists");
   sphere.neighbour_offsets.resize(num_views + 1);
   sphere.neighbour_indices.resize(num_edges);
   in.GetArray<uint32_t>(sphere.neighbour_offsets, "neighbour offsets");
@@ -349,6 +354,7 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   }
   const auto num_bins = in.Get<uint32_t>("bin count");
   if (static_cast<int>(num_bins) != parameters.view_sphere.num_bins) in.Fail("bin count mismatch");
+  need(num_bins, 3 * sizeof(double), "bin centres");
   sphere.bin_centres.resize(num_bins);
   for (auto& c : sphere.bin_centres) {
     c.x() = in.Get<double>("bin centres");
@@ -395,12 +401,27 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       view.centroid_y_px = in.Get<float>("view centroid");
       view.area_px = in.Get<float>("view area");
       view.relative_std = in.Get<float>("view deviation");
+      if (!std::isfinite(view.mean_radius_px) || !std::isfinite(view.centroid_x_px) ||
+          !std::isfinite(view.centroid_y_px) || !std::isfinite(view.area_px) ||
+          !std::isfinite(view.relative_std)) {
+        in.Fail("model '", model.name, "' has a non-finite view record");
+      }
     }
     model.signatures.resize(static_cast<size_t>(num_views) * length);
     in.GetArray<float>(model.signatures, "signatures");
     for (float r : model.signatures) {
-      if (!std::isfinite(r) || r < 0.0f)
+      if (!std::isfinite(r) || r < 0.0f) {
         in.Fail("model '", model.name, "' has an invalid signature value");
+      }
+    }
+    // A describable view's radii are divided by their mean: their mean is 1.
+    for (uint32_t v = 0; v < num_views; ++v) {
+      if (model.views[v].status != SignatureStatus::kOk) continue;
+      double sum = 0.0;
+      for (float r : model.Signature(static_cast<int>(v))) sum += r;
+      if (std::abs(sum / length - 1.0) > 1e-3) {
+        in.Fail("model '", model.name, "' view ", v, " has a signature that is not normalised");
+      }
     }
   }
   if (in.remaining() != 0) in.Fail(in.remaining(), " unexpected bytes after the last model");

@@ -46,8 +46,10 @@ ViewDatabase SmallDatabase() {
       record.centroid_y_px = 30.0f;
       record.area_px = 900.0f;
       record.relative_std = 0.1f;
-      if (v != 5) {
-        for (float& r : model.MutableSignature(v)) r = radius(rng);
+      if (v != 5) {  // radii divided by their mean, as the builder writes them
+        double mean = 0.0;
+        for (float& r : model.MutableSignature(v)) mean += (r = radius(rng));
+        for (float& r : model.MutableSignature(v)) r = static_cast<float>(r / (mean / 32.0));
       }
     }
     database.models.push_back(std::move(model));

@@ -76,6 +76,16 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
   for (size_t m = 0; m < meshes.size(); ++m) {
     SelfMatchModelResult& result = results[m];
     result.name = meshes[m].name;
+    // Per model, not per query: the mesh's centre and radius, the camera of each scale.
+    const Eigen::Vector3d centre = meshes[m].Centre();
+    const double distance = database.parameters.render.distance_in_radii * meshes[m].Radius();
+    std::vector<PinholeCamera> cameras;
+    for (double scale : options.scales) {
+      ViewRenderOptions render = database.parameters.render;
+      render.resolution_px =
+          std::max(32, static_cast<int>(std::lround(render.resolution_px * scale)));
+      cameras.push_back(ViewCamera(render));
+    }
     auto run_views = [&](const tbb::blocked_range<int>& range) {
       auto& worker = workers.local();
       if (!worker) worker = std::make_unique<Worker>(spectra);
@@ -89,10 +99,9 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
           std::mt19937_64 rng(options.seed ^ (0x9e3779b97f4a7c15ULL *
                                               (m * 1000003 + static_cast<size_t>(v) * 17 + s + 1)));
           const double roll = std::uniform_real_distribution<double>(-180.0, 180.0)(rng);
-          ViewRenderOptions render = database.parameters.render;
-          render.resolution_px =
-              std::max(32, static_cast<int>(std::lround(render.resolution_px * options.scales[s])));
-          RenderView(meshes[m], direction, roll, render, &worker->mask);
+          RenderSilhouette(meshes[m], cameras[s],
+                           CameraFromObjectAtView(direction, roll, distance, centre),
+                           &worker->mask);
           SignatureOptions signature_options = database.parameters.signature;
           const SignatureResult described = ExtractSignature(worker->mask, signature_options);
           ++local.queries;
@@ -103,6 +112,10 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
           if (described.flags & kSilhouetteNearlyCircular) ++local.nearly_circular;
           const std::vector<MatchCandidate> top =
               worker->matcher.Match(described.signature.radii, {.top_k = 1});
+          if (top.empty()) {  // no database view of any model has a usable silhouette
+            local.failures.push_back({v, options.scales[s], roll, -1, -1, 0.0, 0.0f, 0.0f});
+            continue;
+          }
           const MatchCandidate& best = top.front();
           const bool right_model = best.model == static_cast<int>(m);
           bool near = false;

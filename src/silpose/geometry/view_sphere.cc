@@ -278,9 +278,10 @@ bool ViewSphereOptions::Check(std::string* error) const {
   std::ostringstream message;
   if (num_views < 4 || num_views > 1'000'000) {
     message << "view sphere option num_views must be between 4 and 1000000, got " << num_views;
-  } else if (!(std::isfinite(neighbour_radius_factor) && neighbour_radius_factor > 1.0)) {
-    message << "view sphere option neighbour_radius_factor must be finite and greater than 1, got "
-            << neighbour_radius_factor;
+  } else if (!(std::isfinite(neighbour_radius_factor) && neighbour_radius_factor > 1.0 &&
+               neighbour_radius_factor <= kMaxNeighbourRadiusFactor)) {
+    message << "view sphere option neighbour_radius_factor must be greater than 1 and at most "
+            << kMaxNeighbourRadiusFactor << ", got " << neighbour_radius_factor;
   } else if (num_bins < 1 || num_bins > num_views) {
     message << "view sphere option num_bins must be between 1 and num_views (" << num_views
             << "), got " << num_bins;

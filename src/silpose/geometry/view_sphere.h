@@ -22,6 +22,10 @@ struct ViewSphereOptions {
   /// Two views are neighbours if their angular distance is at most this factor times the typical
   /// spacing (the median nearest-neighbour angle). > 1.
   double neighbour_radius_factor = 1.5;
+  /// Largest neighbour_radius_factor accepted: about 33 neighbours per view.
+  static constexpr double kMaxNeighbourRadiusFactor = 3.0;
+  /// Largest mean number of neighbours per view a database file may hold.
+  static constexpr int kMaxMeanNeighbours = 64;
   /// K of the K-means clustering of the view directions (1 <= K <= num_views).
   int num_bins = 10;
   /// Seed of the K-means initialisation (k-means++), for reproducible bins.

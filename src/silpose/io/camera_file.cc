@@ -31,6 +31,9 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
     if (storage["image_width"].empty() || storage["image_height"].empty()) {
       ThrowError(name, ": no image_width/image_height");
     }
+    if (!storage["image_width"].isInt() || !storage["image_height"].isInt()) {
+      ThrowError(name, ": image_width and image_height must be whole numbers");
+    }
     storage["image_width"] >> width;
     storage["image_height"] >> height;
   } catch (const cv::Exception& exception) {
@@ -47,9 +50,10 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
   camera.focal_y_px = matrix.at<double>(1, 1);
   camera.principal_x_px = matrix.at<double>(0, 2);
   camera.principal_y_px = matrix.at<double>(1, 2);
-  if (std::abs(matrix.at<double>(0, 1)) > 1e-9 || std::abs(matrix.at<double>(1, 0)) > 1e-9 ||
-      std::abs(matrix.at<double>(2, 0)) > 1e-9 || std::abs(matrix.at<double>(2, 1)) > 1e-9 ||
-      std::abs(matrix.at<double>(2, 2) - 1.0) > 1e-9) {
+  auto near = [](double value, double target) { return std::abs(value - target) <= 1e-9; };
+  if (!near(matrix.at<double>(0, 1), 0.0) || !near(matrix.at<double>(1, 0), 0.0) ||
+      !near(matrix.at<double>(2, 0), 0.0) || !near(matrix.at<double>(2, 1), 0.0) ||
+      !near(matrix.at<double>(2, 2), 1.0)) {
     ThrowError(name, ": camera_matrix must have the form [fx 0 cx; 0 fy cy; 0 0 1]");
   }
   if (!distortion.empty()) {

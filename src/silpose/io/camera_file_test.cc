@@ -75,8 +75,20 @@ TEST(CameraFile, BadFilesGiveOneClearMessageNamingTheFile) {
                                 "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
                                 "   data: [ 1., 0., 0., 1. ]\n";
   EXPECT_NE(ErrorOf(wrong_shape).find("3x3"), std::string::npos);
-  for (const auto& path : {garbage, no_matrix, bad_focal, wrong_shape})
+  const auto nan_skew = TempPath("nanskew.yml");
+  std::ofstream(nan_skew) << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\n"
+                             "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                             "   data: [ 300., .nan, 160., 0., 300., 120., 0., 0., 1. ]\n";
+  EXPECT_NE(ErrorOf(nan_skew).find("camera_matrix must have the form"), std::string::npos)
+      << ErrorOf(nan_skew);
+  const auto fractional = TempPath("fractional.yml");
+  std::ofstream(fractional) << "%YAML:1.0\n---\nimage_width: 320.5\nimage_height: 240\n"
+                               "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                               "   data: [ 300., 0., 160., 0., 300., 120., 0., 0., 1. ]\n";
+  EXPECT_NE(ErrorOf(fractional).find("whole numbers"), std::string::npos) << ErrorOf(fractional);
+  for (const auto& path : {garbage, no_matrix, bad_focal, wrong_shape, nan_skew, fractional}) {
     std::filesystem::remove(path);
+  }
 }
 
 }  // namespace

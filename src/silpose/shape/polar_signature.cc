@@ -188,9 +188,16 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
   }
   if (outer.empty()) return result;  // kEmpty
 
-  size_t chosen = 0;
-  for (size_t j = 1; j < outer.size(); ++j) {
-    if (options.component == ComponentChoice::kLargest) {
+  // Choose among the components large enough to describe (a long thin line has a large outline but
+  // encloses nothing, and must not hide the object); if none is, report the largest as too small.
+  bool any_describable = false;
+  for (double enclosed : outer_enclosed) any_describable |= enclosed >= options.min_area_px;
+  size_t chosen = outer.size();
+  for (size_t j = 0; j < outer.size(); ++j) {
+    if (any_describable && outer_enclosed[j] < options.min_area_px) continue;
+    if (chosen == outer.size()) {
+      chosen = j;
+    } else if (options.component == ComponentChoice::kLargest) {
       if (outer_area[j] > outer_area[chosen]) chosen = j;
     } else if ((outer_centroid[j] - options.nearest_to_px).squaredNorm() <
                (outer_centroid[chosen] - options.nearest_to_px).squaredNorm()) {

@@ -266,6 +266,16 @@ TEST(PolarSignature, SeveralComponentsUseTheLargestOrTheNearest) {
   EXPECT_NEAR(nearest.signature.centroid_px.y(), 140.0, 1.0);
 }
 
+TEST(PolarSignature, ALongThinLineDoesNotHideASmallObject) {
+  cv::Mat mask = cv::Mat::zeros(120, 400, CV_8UC1);
+  cv::circle(mask, {40, 60}, 9, cv::Scalar(255), cv::FILLED);  // ~250 px, describable
+  cv::line(mask, {60, 100}, {390, 100}, cv::Scalar(255));      // 331 px, encloses nothing
+  const SignatureResult result = ExtractSignature(mask);
+  ASSERT_TRUE(result.ok()) << result.Describe();
+  EXPECT_NEAR(result.signature.centroid_px.x(), 40.0, 0.5);
+  EXPECT_TRUE(result.flags & kSilhouetteSeveralComponents);
+}
+
 TEST(PolarSignature, CentroidOutsideTheShapeIsReported) {
   cv::Mat mask = cv::Mat::zeros(300, 300, CV_8UC1);
   cv::ellipse(mask, {150, 150}, {100, 100}, 0, 40, 320, cv::Scalar(255), 25);  // a thick "C"
