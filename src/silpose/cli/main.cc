@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   silpose::cli::AddBuildDbCommand(app);
   silpose::cli::AddMatchCommand(app);
   silpose::cli::AddRenderCommand(app);
+  silpose::cli::AddSynthCommand(app);
   silpose::cli::AddDemoCommand(app);
   silpose::cli::AddEvalCommand(app);
 

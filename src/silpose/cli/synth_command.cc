@@ -1,0 +1,274 @@
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "silpose/cli/commands.h"
+#include "silpose/io/camera_file.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/util/error.h"
+
+namespace silpose::cli {
+namespace {
+
+struct SynthArguments {
+  std::vector<std::string> models;
+  std::string output;
+  std::string trajectory = "orbit";
+  int frames = 0;  // 0: orbit one loop, walk 360
+  double step_deg = 1.0;
+  double tilt_deg = 30.0;
+  std::string camera;
+  double distance_radii = 3.0;
+  std::vector<double> distance_range = {3.0, 6.0};
+  double roll_deg = 0.0;
+  double roll_speed_deg = 0.5;
+  std::vector<int> switch_at;
+  int switch_every = 0;
+  uint64_t seed = 1;
+  int threads = 0;
+  bool overwrite = false;
+  DegradationOptions degradation;
+  // Options given on the command line (CLI11 counts), to refuse those that do not apply.
+  CLI::Option* tilt_option = nullptr;
+  CLI::Option* distance_option = nullptr;
+  CLI::Option* range_option = nullptr;
+  CLI::Option* roll_speed_option = nullptr;
+};
+
+void RefuseFor(const CLI::Option* option, const char* trajectory) {
+  if (option->count() > 0) {
+    ThrowError(option->get_name(), " does not apply to --trajectory ", trajectory);
+  }
+}
+
+TrajectoryOptions MakeTrajectory(const SynthArguments& arguments, int num_models) {
+  TrajectoryOptions trajectory;
+  if (arguments.frames < 0) ThrowError("--frames must be >= 1 (or 0 for the default)");
+  if (arguments.trajectory == "orbit") {
+    RefuseFor(arguments.range_option, "orbit");
+    RefuseFor(arguments.roll_speed_option, "orbit");
+    trajectory.kind = TrajectoryKind::kOrbit;
+    OrbitOptions& orbit = trajectory.orbit;
+    orbit.step_deg = arguments.step_deg;
+    orbit.tilt_deg = arguments.tilt_deg;
+    orbit.roll_deg = arguments.roll_deg;
+    orbit.distance_in_radii = arguments.distance_radii;
+    std::string problem;
+    if (!orbit.Check(&problem)) {
+      ThrowError("invalid orbit (--step-deg, --tilt-deg, ...): ", problem);
+    }
+    trajectory.num_frames = arguments.frames > 0 ? arguments.frames : orbit.FramesPerLoop();
+  } else {
+    RefuseFor(arguments.tilt_option, "walk");
+    trajectory.kind = TrajectoryKind::kWalk;
+    WalkOptions& walk = trajectory.walk;
+    walk.seed = arguments.seed;
+    walk.speed_sigma_deg = arguments.step_deg;
+    walk.start_roll_deg = arguments.roll_deg;
+    walk.roll_speed_sigma_deg = arguments.roll_speed_deg;
+    if (arguments.distance_range.size() != 2) {
+      ThrowError("--distance-range must be two numbers MIN,MAX (object radii)");
+    }
+    walk.distance_min_radii = arguments.distance_range[0];
+    walk.distance_max_radii = arguments.distance_range[1];
+    if (arguments.distance_option->count() > 0) {
+      walk.start_distance_radii = arguments.distance_radii;
+    }
+    std::string problem;
+    if (!walk.Check(&problem)) {
+      ThrowError("invalid walk (--step-deg, --distance-range, --distance, ...): ", problem);
+    }
+    trajectory.num_frames = arguments.frames > 0 ? arguments.frames : 360;
+  }
+
+  // Which model when: explicit switch frames, a fixed period, or equal segments.
+  if (!arguments.switch_at.empty()) {
+    if (arguments.switch_every > 0) ThrowError("give --switch-at or --switch-every, not both");
+    if (static_cast<int>(arguments.switch_at.size()) != num_models - 1) {
+      ThrowError("--switch-at needs one frame per model after the first: ", num_models,
+                 " model(s) need ", num_models - 1, " frame(s), got ", arguments.switch_at.size());
+    }
+    for (size_t i = 0; i < arguments.switch_at.size(); ++i) {
+      const int frame = arguments.switch_at[i];
+      if (frame < 1 || frame >= trajectory.num_frames ||
+          (i > 0 && frame <= arguments.switch_at[i - 1])) {
+        ThrowError("--switch-at frames must increase, within 1..", trajectory.num_frames - 1,
+                   "; got ", frame);
+      }
+      trajectory.object_switches.push_back({frame, static_cast<int>(i) + 1});
+    }
+  } else {
+    if (arguments.switch_every < 0) ThrowError("--switch-every must be >= 1");
+    if (arguments.switch_every > 0 && num_models < 2) {
+      ThrowError("--switch-every needs at least two models");
+    }
+    trajectory.object_switches =
+        CyclicObjectSwitches(num_models, trajectory.num_frames, arguments.switch_every);
+  }
+  std::string problem;
+  if (!trajectory.Check(&problem)) ThrowError("invalid trajectory: ", problem);
+  return trajectory;
+}
+
+void RunSynth(const SynthArguments& arguments) {
+  SequenceOptions options;
+  options.trajectory = MakeTrajectory(arguments, static_cast<int>(arguments.models.size()));
+  options.degradation = arguments.degradation;
+  options.degradation.seed = arguments.seed;
+  std::string problem;
+  if (!options.degradation.Check(&problem)) {
+    ThrowError("invalid degradation (--noise, --erode, --missed, --bad, ...): ", problem);
+  }
+  if (arguments.threads < 0) ThrowError("--threads must be >= 0 (0 = all cores)");
+  if (!arguments.camera.empty()) options.camera = ReadCameraFile(arguments.camera);
+
+  std::vector<TriangleMesh> meshes;
+  for (const std::string& model : arguments.models) {
+    for (const TriangleMesh& other : meshes) {
+      if (other.name == std::filesystem::path(model).stem().string()) {
+        ThrowError(model, ": another model is also named '", other.name,
+                   "' (model names are file stems and must be unique)");
+      }
+    }
+    meshes.push_back(LoadMesh(model));
+  }
+  const SyntheticSequence sequence(std::move(meshes), options);
+  const SequenceSummary summary = WriteSequence(
+      sequence, arguments.output,
+      {.num_threads = arguments.threads, .show_progress = true, .overwrite = arguments.overwrite});
+  std::printf("%s: %s trajectory, %s, %dx%d camera\n", summary.BriefReport().c_str(),
+              TrajectoryKindName(options.trajectory.kind),
+              sequence.meshes().size() == 1
+                  ? sequence.meshes().front().name.c_str()
+                  : (std::to_string(sequence.meshes().size()) + " models").c_str(),
+              options.camera.width_px, options.camera.height_px);
+  if (summary.touching_border > 0) {
+    std::fprintf(stderr,
+                 "silpose synth: warning: in %d frames the object is cut by the image border; "
+                 "increase --distance\n",
+                 summary.touching_border);
+  }
+  if (summary.out_of_view > 0) {
+    std::fprintf(stderr, "silpose synth: warning: in %d frames the object is out of view\n",
+                 summary.out_of_view);
+  }
+}
+
+}  // namespace
+
+void AddSynthCommand(CLI::App& app) {
+  auto arguments = std::make_shared<SynthArguments>();
+  CLI::App* command = app.add_subcommand(
+      "synth",
+      "Render a synthetic silhouette sequence with exact ground truth: masks/000000.png..., "
+      "camera.yml and groundtruth.csv (frame, object, view, roll, 6-DOF pose, distance, "
+      "degradation). With several models the sequence shows them in turn.");
+  command
+      ->add_option("models", arguments->models,
+                   "Mesh files; the first is shown first (see --switch-at, --switch-every)")
+      ->required();
+  command->add_option("-o,--output", arguments->output, "Sequence folder to write")->required();
+  command
+      ->add_option("--trajectory", arguments->trajectory,
+                   "orbit: a great circle around the object at a constant step, distance and "
+                   "roll (the paper's flight); walk: a smooth seeded random walk of view, roll "
+                   "and distance")
+      ->check(CLI::IsMember({"orbit", "walk"}))
+      ->capture_default_str();
+  command->add_option("--frames", arguments->frames,
+                      "Frames to render (0 = default: orbit one full loop, 360 / step; walk 360)");
+  command
+      ->add_option("--step-deg", arguments->step_deg,
+                   "orbit: degrees along the circle per frame; walk: spread of the angular "
+                   "speed, degrees per frame (per axis, steps capped at 3x)")
+      ->capture_default_str();
+  arguments->tilt_option =
+      command
+          ->add_option("--tilt-deg", arguments->tilt_deg,
+                       "orbit: inclination of the circle to the model's XY plane, degrees (0: "
+                       "equator, 90: over the poles)")
+          ->capture_default_str();
+  command->add_option(
+      "--camera", arguments->camera,
+      "OpenCV calibration YAML (camera_matrix, image_width, ...); default: 640x480, "
+      "focal 525 px, principal point at the image centre");
+  arguments->distance_option =
+      command
+          ->add_option("--distance", arguments->distance_radii,
+                       "Camera distance from the object centre, object radii (walk: the start; "
+                       "default there: the geometric mean of --distance-range)")
+          ->capture_default_str();
+  arguments->range_option =
+      command
+          ->add_option("--distance-range", arguments->distance_range,
+                       "walk: smallest and largest distance, object radii, MIN,MAX")
+          ->delimiter(',')
+          ->expected(2)
+          ->capture_default_str();
+  command
+      ->add_option("--roll", arguments->roll_deg,
+                   "Camera roll about its optical axis, degrees (orbit: constant; walk: start)")
+      ->capture_default_str();
+  arguments->roll_speed_option =
+      command
+          ->add_option("--roll-speed-deg", arguments->roll_speed_deg,
+                       "walk: spread of the roll speed, degrees per frame")
+          ->capture_default_str();
+  command
+      ->add_option("--switch-at", arguments->switch_at,
+                   "Frames where the next model takes over, F1,F2,... (one per model after the "
+                   "first). Default with several models: equal segments, one per model, in order")
+      ->delimiter(',');
+  command->add_option("--switch-every", arguments->switch_every,
+                      "Change to the next model every N frames, cycling through the models");
+  DegradationOptions& degradation = arguments->degradation;
+  command
+      ->add_option("--noise", degradation.noise_fraction,
+                   "Salt-and-pepper noise: fraction of pixels flipped, 0..1")
+      ->capture_default_str();
+  command
+      ->add_option("--erode", degradation.erode_px,
+                   "Erode every silhouette by N pixels (elliptic element)")
+      ->capture_default_str();
+  command
+      ->add_option("--dilate", degradation.dilate_px,
+                   "Dilate every silhouette by N pixels (after erosion)")
+      ->capture_default_str();
+  command
+      ->add_option("--occluders", degradation.occluders,
+                   "Random ellipses per frame that cut pieces out of the silhouette")
+      ->capture_default_str();
+  command
+      ->add_option("--occluder-size", degradation.occluder_size,
+                   "Largest occluder semi-axes, relative to the silhouette's bounding box")
+      ->capture_default_str();
+  command
+      ->add_option("--clutter", degradation.clutter_blobs,
+                   "Random background blobs per frame (spurious segments)")
+      ->capture_default_str();
+  command
+      ->add_option("--clutter-size", degradation.clutter_size,
+                   "Largest clutter semi-axes, relative to the silhouette's bounding box")
+      ->capture_default_str();
+  command
+      ->add_option("--missed", degradation.missed_probability,
+                   "Probability that a frame is missed (empty mask), 0..1")
+      ->capture_default_str();
+  command
+      ->add_option("--bad", degradation.bad_probability,
+                   "Probability that a frame is badly segmented (large occluder, heavy erosion "
+                   "or merged blob), 0..1; recorded in groundtruth.csv")
+      ->capture_default_str();
+  command->add_option("--seed", arguments->seed, "Seed of the walk and of the degradations")
+      ->capture_default_str();
+  command->add_option("--threads", arguments->threads, "Worker threads (0 = all cores)")
+      ->capture_default_str();
+  command->add_flag("--overwrite", arguments->overwrite,
+                    "Replace a sequence already in the output folder (its masks are deleted)");
+  command->callback([arguments] { RunSynth(*arguments); });
+}
+
+}  // namespace silpose::cli

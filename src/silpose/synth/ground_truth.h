@@ -1,0 +1,58 @@
+#pragma once
+// groundtruth.csv of a synthetic sequence folder (DESIGN.md, "synth DIR"): one row per frame,
+// header first, with the columns
+//   frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,
+//   distance,degradation
+// `object` is the model's file stem; (view, roll) as in geometry/view_frame.h; r.. and t.. the
+// 6-DOF pose camera_from_object (x_in_camera = R * x_in_object + t, OpenCV camera frame, t in model
+// units); `distance` the camera distance from the object centre in object radii; `degradation`
+// none|missed|bad (synth/degradation.h). Numbers are written in the shortest form that reads back
+// to the same double.
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "silpose/geometry/rigid3.h"
+#include "silpose/synth/degradation.h"
+
+namespace silpose {
+
+/// One row of groundtruth.csv.
+struct GroundTruthFrame {
+  /// Frame number (mask file masks/<frame, six digits>.png).
+  int frame = 0;
+  /// Model name (the mesh file's stem).
+  std::string object;
+  /// Unit vector from the object centre towards the camera, model frame.
+  Eigen::Vector3d view_dir_in_object = Eigen::Vector3d::UnitX();
+  /// Camera roll, degrees, in (-180, 180].
+  double roll_deg = 0.0;
+  /// The 6-DOF pose (DESIGN.md's object_to_camera).
+  Rigid3 camera_from_object;
+  /// Camera distance from the object centre, object radii; NaN if the file has no such column.
+  double distance_in_radii = 0.0;
+  /// kNone if the file has no such column.
+  FrameDegradation degradation = FrameDegradation::kNone;
+};
+
+/// The header line (without the newline).
+const char* GroundTruthHeader();
+
+/// Writes the rows in the given order. Throws silpose::Error naming the file if it cannot be
+/// written or an object name contains a comma, a quote or a line break.
+void WriteGroundTruth(const std::filesystem::path& path,
+                      const std::vector<GroundTruthFrame>& frames);
+
+/// Reads groundtruth.csv. Columns are found by their header names, in any order; extra columns are
+/// ignored; `distance` and `degradation` are optional (files that only have DESIGN.md's columns
+/// read fine). Accepts CRLF line ends and blank lines at the end. Throws silpose::Error naming the
+/// file, and the line where it applies, if the file is missing, a required column is missing, a
+/// row has the wrong number of fields, a number does not parse or is not finite, a frame number is
+/// negative or not larger than the previous row's, an object name is empty, a view direction is
+/// not of unit length, R is not a rotation, the view direction is not R's optical axis reversed
+/// (-R.row(2)), or a degradation is unknown (tolerances 1e-4, for files written with 6 decimals).
+std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path);
+
+}  // namespace silpose

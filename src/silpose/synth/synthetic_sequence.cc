@@ -1,0 +1,241 @@
+#include "silpose/synth/synthetic_sequence.h"
+
+#include <oneapi/tbb/info.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include "silpose/geometry/view_frame.h"
+#include "silpose/io/camera_file.h"
+#include "silpose/io/mask_file.h"
+#include "silpose/render/silhouette_renderer.h"
+#include "silpose/util/error.h"
+#include "silpose/util/progress.h"
+
+namespace silpose {
+namespace {
+
+bool TouchesBorder(const cv::Mat& mask) {
+  const int last_row = mask.rows - 1;
+  const int last_col = mask.cols - 1;
+  return cv::countNonZero(mask.row(0)) > 0 || cv::countNonZero(mask.row(last_row)) > 0 ||
+         cv::countNonZero(mask.col(0)) > 0 || cv::countNonZero(mask.col(last_col)) > 0;
+}
+
+// A mask file name: digits only, then ".png".
+bool IsMaskFileName(const std::filesystem::path& path) {
+  if (path.extension() != ".png") return false;
+  const std::string stem = path.stem().string();
+  if (stem.empty()) return false;
+  for (char c : stem) {
+    if (c < '0' || c > '9') return false;
+  }
+  return true;
+}
+
+void PrepareFolder(const std::filesystem::path& folder, bool overwrite) {
+  std::error_code error;
+  std::filesystem::create_directories(folder / "masks", error);
+  if (error) ThrowError(folder.string(), ": cannot create the folder: ", error.message());
+  std::vector<std::filesystem::path> old_masks;
+  for (const auto& entry : std::filesystem::directory_iterator(folder / "masks", error)) {
+    if (IsMaskFileName(entry.path())) old_masks.push_back(entry.path());
+  }
+  if (error) ThrowError((folder / "masks").string(), ": cannot list the folder: ", error.message());
+  const bool has_truth = std::filesystem::exists(folder / "groundtruth.csv", error);
+  if ((has_truth || !old_masks.empty()) && !overwrite) {
+    ThrowError(folder.string(),
+               ": already holds a sequence (groundtruth.csv or masks/*.png); choose another "
+               "folder or allow overwriting (--overwrite)");
+  }
+  // The old ground truth goes first: a folder with groundtruth.csv is always complete.
+  if (has_truth) {
+    std::filesystem::remove(folder / "groundtruth.csv", error);
+    if (error) {
+      ThrowError((folder / "groundtruth.csv").string(), ": cannot remove: ", error.message());
+    }
+  }
+  for (const auto& path : old_masks) {
+    std::filesystem::remove(path, error);
+    if (error) ThrowError(path.string(), ": cannot remove the old mask: ", error.message());
+  }
+}
+
+}  // namespace
+
+PinholeCamera DefaultSynthCamera() { return PinholeCamera::Centered(640, 480, 525.0); }
+
+bool SequenceOptions::Check(std::string* error) const {
+  std::string problem;
+  if (!camera.Check(&problem)) {
+    if (error != nullptr) *error = "invalid camera: " + problem;
+    return false;
+  }
+  if (!trajectory.Check(error)) return false;
+  return degradation.Check(error);
+}
+
+SyntheticSequence::SyntheticSequence(std::vector<TriangleMesh> meshes,
+                                     const SequenceOptions& options)
+    : meshes_(std::move(meshes)), options_(options) {
+  std::string problem;
+  if (!options_.Check(&problem)) ThrowError("invalid synthetic sequence options: ", problem);
+  if (meshes_.empty()) ThrowError("no model given: a synthetic sequence needs at least one mesh");
+  std::set<std::string> names;
+  for (size_t i = 0; i < meshes_.size(); ++i) {
+    const TriangleMesh& mesh = meshes_[i];
+    if (mesh.name.empty()) ThrowError("model ", i + 1, " has no name (the file stem)");
+    if (!names.insert(mesh.name).second) {
+      ThrowError(mesh.name,
+                 ": two models have this name (model names are file stems and must be "
+                 "unique in a sequence)");
+    }
+    const double radius = mesh.Radius();
+    if (mesh.vertices.empty() || !(radius > 0.0) || !std::isfinite(radius)) {
+      ThrowError(mesh.name, ": the mesh has no extent (all vertices coincide), nothing to render");
+    }
+    centres_.push_back(mesh.Centre());
+    radii_.push_back(radius);
+  }
+  for (const ObjectSwitch& s : options_.trajectory.object_switches) {
+    if (s.object >= static_cast<int>(meshes_.size())) {
+      ThrowError("object switch at frame ", s.frame, " names object ", s.object + 1, " but only ",
+                 meshes_.size(), " model(s) were given");
+    }
+  }
+  trajectory_ = GenerateTrajectory(options_.trajectory);
+}
+
+GroundTruthFrame SyntheticSequence::Truth(int index) const {
+  SILPOSE_ASSERT(index >= 0 && index < num_frames());
+  const TrajectoryFrame& step = trajectory_[static_cast<size_t>(index)];
+  const auto object = static_cast<size_t>(step.object);
+  GroundTruthFrame truth;
+  truth.frame = index;
+  truth.object = meshes_[object].name;
+  truth.view_dir_in_object = step.view_dir_in_object;
+  truth.roll_deg = step.roll_deg;
+  truth.distance_in_radii = step.distance_in_radii;
+  truth.camera_from_object =
+      CameraFromObjectAtView(step.view_dir_in_object, step.roll_deg,
+                             step.distance_in_radii * radii_[object], centres_[object]);
+  truth.degradation = ChooseFrameDegradation(options_.degradation, index);
+  return truth;
+}
+
+void SyntheticSequence::Generate(int index, SyntheticFrame* frame) const {
+  frame->truth = Truth(index);
+  const TriangleMesh& mesh = meshes_[static_cast<size_t>(trajectory_[index].object)];
+  RenderSilhouette(mesh, options_.camera, frame->truth.camera_from_object, &frame->mask);
+  frame->rendered_area_px = cv::countNonZero(frame->mask);
+  frame->touches_border = frame->rendered_area_px > 0 && TouchesBorder(frame->mask);
+  const FrameDegradation applied = DegradeMask(options_.degradation, index, &frame->mask);
+  SILPOSE_ASSERT(applied == frame->truth.degradation);
+}
+
+SyntheticFrame SyntheticSequence::Generate(int index) const {
+  SyntheticFrame frame;
+  Generate(index, &frame);
+  return frame;
+}
+
+bool SequenceWriteOptions::Check(std::string* error) const {
+  if (num_threads < 0) {
+    if (error != nullptr) *error = "thread count must be >= 0 (0 = all cores)";
+    return false;
+  }
+  return true;
+}
+
+std::string SequenceSummary::BriefReport() const {
+  std::ostringstream report;
+  report << "wrote " << frames << " frames to " << folder.string();
+  std::vector<std::string> notes;
+  if (missed > 0) notes.push_back(std::to_string(missed) + " missed");
+  if (bad > 0) notes.push_back(std::to_string(bad) + " badly segmented");
+  if (out_of_view > 0) {
+    notes.push_back(std::to_string(out_of_view) + " with the object out of view");
+  }
+  if (touching_border > 0) {
+    notes.push_back(std::to_string(touching_border) + " with the object cut by the image border");
+  }
+  if (!notes.empty()) {
+    report << " (";
+    for (size_t i = 0; i < notes.size(); ++i) report << (i > 0 ? ", " : "") << notes[i];
+    report << ")";
+  }
+  char seconds_text[32];
+  std::snprintf(seconds_text, sizeof(seconds_text), " in %.1f s", seconds);
+  report << seconds_text;
+  return report.str();
+}
+
+std::filesystem::path SequenceMaskPath(const std::filesystem::path& folder, int frame) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06d.png", frame);
+  return folder / "masks" / name;
+}
+
+SequenceSummary WriteSequence(const SyntheticSequence& sequence,
+                              const std::filesystem::path& folder,
+                              const SequenceWriteOptions& options) {
+  std::string problem;
+  if (!options.Check(&problem)) ThrowError("invalid sequence writing options: ", problem);
+  const auto start = std::chrono::steady_clock::now();
+  PrepareFolder(folder, options.overwrite);
+  WriteCameraFile(folder / "camera.yml", sequence.camera());
+
+  const int num_frames = sequence.num_frames();
+  std::vector<GroundTruthFrame> truths(static_cast<size_t>(num_frames));
+  std::vector<int> areas(static_cast<size_t>(num_frames), 0);
+  std::vector<char> border(static_cast<size_t>(num_frames), 0);
+  ProgressBar progress("synth", num_frames,
+                       options.show_progress && ProgressBar::StderrIsTerminal());
+  auto generate = [&](const tbb::blocked_range<int>& range) {
+    SyntheticFrame frame;
+    for (int k = range.begin(); k != range.end(); ++k) {
+      sequence.Generate(k, &frame);
+      WriteMask(SequenceMaskPath(folder, k), frame.mask);
+      const auto i = static_cast<size_t>(k);
+      areas[i] = frame.rendered_area_px;
+      border[i] = frame.touches_border ? 1 : 0;
+      truths[i] = std::move(frame.truth);
+    }
+    progress.Advance(static_cast<int64_t>(range.size()));
+  };
+  if (options.num_threads == 1) {
+    constexpr int kChunk = 8;  // report progress as frames are done
+    for (int begin = 0; begin < num_frames; begin += kChunk) {
+      generate(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_frames)));
+    }
+  } else {
+    // More threads than cores gain nothing, and oneTBB warns about them on stderr.
+    const int threads = options.num_threads > 0
+                            ? std::min(options.num_threads, tbb::info::default_concurrency())
+                            : tbb::task_arena::automatic;
+    tbb::task_arena arena(threads);
+    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_frames, 4), generate); });
+  }
+  progress.Finish();
+  WriteGroundTruth(folder / "groundtruth.csv", truths);
+
+  SequenceSummary summary;
+  summary.folder = folder;
+  summary.frames = num_frames;
+  for (size_t i = 0; i < truths.size(); ++i) {
+    summary.missed += truths[i].degradation == FrameDegradation::kMissed;
+    summary.bad += truths[i].degradation == FrameDegradation::kBad;
+    summary.out_of_view += areas[i] == 0;
+    summary.touching_border += border[i] != 0;
+  }
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace silpose
