@@ -14,6 +14,7 @@
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
 #include "silpose/util/progress.h"
+#include "silpose/util/threads.h"
 
 namespace silpose {
 
@@ -78,7 +79,7 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
       describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_views)));
     }
   } else {
-    tbb::task_arena arena(num_threads > 0 ? num_threads : tbb::task_arena::automatic);
+    tbb::task_arena arena(WorkerThreads(num_threads));
     arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 8), describe); });
   }
 }

@@ -13,6 +13,7 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/util/error.h"
+#include "silpose/util/threads.h"
 
 namespace silpose {
 
@@ -160,8 +161,7 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
       result.Add(local);
       if (on_progress) on_progress(done);
     };
-    tbb::task_arena arena(options.num_threads > 0 ? options.num_threads
-                                                  : tbb::task_arena::automatic);
+    tbb::task_arena arena(WorkerThreads(options.num_threads));
     arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 16), run_views); });
     std::sort(result.failures.begin(), result.failures.end(),
               [](const SelfMatchFailure& a, const SelfMatchFailure& b) {

@@ -1,6 +1,5 @@
 #include "silpose/synth/synthetic_sequence.h"
 
-#include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
@@ -17,6 +16,7 @@
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
 #include "silpose/util/progress.h"
+#include "silpose/util/threads.h"
 
 namespace silpose {
 namespace {
@@ -215,11 +215,7 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
       generate(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_frames)));
     }
   } else {
-    // More threads than cores gain nothing, and oneTBB warns about them on stderr.
-    const int threads = options.num_threads > 0
-                            ? std::min(options.num_threads, tbb::info::default_concurrency())
-                            : tbb::task_arena::automatic;
-    tbb::task_arena arena(threads);
+    tbb::task_arena arena(WorkerThreads(options.num_threads));
     arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_frames, 4), generate); });
   }
   progress.Finish();
