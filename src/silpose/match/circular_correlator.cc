@@ -1,12 +1,43 @@
 #include "silpose/match/circular_correlator.h"
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "silpose/util/error.h"
 
 namespace silpose {
+namespace {
+
+// e(s) = sum_k w_k Re(P_k exp(i omega k s)) (w_0 = 1, else 2) and its first two derivatives in s,
+// for the band-limited products P_k = conj(Q_k) D_k.
+struct BandLimitedValue {
+  double value = 0.0;
+  double slope = 0.0;
+  double bend = 0.0;
+};
+
+BandLimitedValue EvaluateBandLimited(std::span<const std::complex<float>> products, double omega,
+                                     double shift) {
+  const std::complex<double> rotation = std::polar(1.0, omega * shift);
+  std::complex<double> phase(1.0, 0.0);
+  BandLimitedValue out;
+  for (size_t k = 0; k < products.size(); ++k) {
+    const std::complex<double> term = std::complex<double>(products[k]) * phase;
+    const double weight = k == 0 ? 1.0 : 2.0;
+    const double frequency = omega * static_cast<double>(k);
+    out.value += weight * term.real();
+    out.slope -= weight * frequency * term.imag();
+    out.bend -= weight * frequency * frequency * term.real();
+    phase *= rotation;
+  }
+  return out;
+}
+
+}  // namespace
 
 double CorrelationPeak::RollDeg(int length) const {
   double roll = 360.0 * static_cast<double>(shift_bins) / static_cast<double>(length);
@@ -74,7 +105,8 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
   for (float r : radii) sum_squares += (r - mean) * (r - mean);
   const size_t half = static_cast<size_t>(length_ / 2 + 1);
   spectrum->coefficients.assign(half, {0.0f, 0.0f});
-  spectrum->magnitudes.assign(half, 0.0f);
+  // Every spectrum of this correlator has bound_length_ magnitudes, flat ones included (all 0).
+  spectrum->magnitudes.assign(bound_length_, 0.0f);
   // A signature whose variance is at float rounding level has no shape to correlate.
   spectrum->has_variance = sum_squares > 1e-10 * (mean * mean + 1e-30) * length_;
   if (!spectrum->has_variance) return;
@@ -102,8 +134,7 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
     const auto renormalise = static_cast<float>(1.0 / std::sqrt(energy));
     for (auto& c : spectrum->coefficients) c *= renormalise;
   }
-  // Harmonics the smoothing removed contribute nothing to the bound: leave them out of it.
-  spectrum->magnitudes.resize(bound_length_);
+  // Harmonics the smoothing removed contribute nothing to the bound: they are left out of it.
   for (size_t k = 0; k < bound_length_; ++k) {
     const float weight = (!weighted || k == 0 || k == half - 1) ? 1.0f : 2.0f;
     spectrum->magnitudes[k] = weight * std::abs(spectrum->coefficients[k]);
@@ -198,11 +229,171 @@ CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& que
     if (iteration == 1 || !(bend < 0.0)) break;
     shift -= std::clamp(slope / bend, -step, step);
   }
+  if (score < peak) {  // the step went downhill (two lobes close together): keep the sample
+    score = peak;
+    shift = best * step;
+  }
   shift = std::fmod(shift, static_cast<double>(length_));
   if (shift < 0.0) shift += length_;
   auto shift_bins = static_cast<float>(shift);
   if (shift_bins >= static_cast<float>(length_)) shift_bins = 0.0f;  // -tiny rounds up to M
   return {static_cast<float>(std::min(score, 1.0)), shift_bins};
+}
+
+void CircularCorrelator::LocalPeaks(const SignatureSpectrum& query,
+                                    const SignatureSpectrum& reference,
+                                    std::span<const double> start_shifts_bins,
+                                    double max_offset_bins, std::span<CorrelationPeak> peaks) {
+  SILPOSE_ASSERT(peaks.size() == start_shifts_bins.size());
+  SILPOSE_ASSERT(max_offset_bins >= 0.0 && std::isfinite(max_offset_bins));
+  if (start_shifts_bins.empty()) return;
+  const auto length = static_cast<double>(length_);
+  const bool band_limited = coarse_fft_ != nullptr;
+  const size_t harmonics = bound_length_;
+  // e on a regular grid, once for all starts.
+  const float* samples = nullptr;
+  int64_t count = 0;
+  if (band_limited) {
+    SILPOSE_ASSERT(query.coefficients.size() > harmonics &&
+                   reference.coefficients.size() > harmonics);
+    for (size_t k = 0; k < harmonics; ++k) {
+      coarse_products_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
+    }
+    coarse_fft_->Inverse(coarse_products_.data(), coarse_samples_.data());
+    samples = coarse_samples_.data();
+    count = coarse_fft_->length();
+  } else {
+    Correlate(query, reference, real_scratch_);
+    samples = real_scratch_.data();
+    count = length_;
+  }
+  const double step = length / static_cast<double>(count);  // bins per grid sample
+  auto wrap_index = [count](int64_t j) { return ((j % count) + count) % count; };
+  auto sample = [&](int64_t j) { return static_cast<double>(samples[wrap_index(j)]); };
+  auto wrap_shift = [length](double shift) {
+    double wrapped = std::fmod(shift, length);
+    if (wrapped < 0.0) wrapped += length;
+    return wrapped >= length ? 0.0 : wrapped;
+  };
+  const std::span<const std::complex<float>> products(coarse_products_.data(), harmonics);
+  const double omega = 2.0 * std::numbers::pi / length;
+
+  // Refined interior maxima found so far, by wrapped grid index, shared by later starts. A small
+  // fixed table: the starts on one view seldom reach more than a couple of maxima.
+  struct Refined {
+    int64_t grid_index;
+    double shift;  // in [0, M)
+    double score;
+  };
+  std::array<Refined, 8> refined{};
+  size_t num_refined = 0;
+
+  for (size_t i = 0; i < start_shifts_bins.size(); ++i) {
+    SILPOSE_ASSERT(std::isfinite(start_shifts_bins[i]));
+    const double start = wrap_shift(start_shifts_bins[i]);
+    const double lo = start - max_offset_bins;
+    const double hi = start + max_offset_bins;
+    const auto first = static_cast<int64_t>(std::ceil(lo / step));
+    const auto last = static_cast<int64_t>(std::floor(hi / step));
+    // The climb starts at the higher of the two grid samples around the start: e rises from the
+    // start towards it (or peaks between them).
+    const auto below = static_cast<int64_t>(std::floor(start / step));
+    int64_t grid = sample(below + 1) > sample(below) ? below + 1 : below;
+    double shift = start;   // where the refinement starts
+    double score = sample(grid);
+    bool grid_maximum = false;  // the climb ended on a grid maximum inside the window
+    if (grid < first || grid > last) {
+      // Uphill lies outside the window (or no grid sample is inside): refine from the edge.
+      shift = grid < first ? lo : hi;
+      grid = std::clamp(static_cast<int64_t>(std::llround(shift / step)), first, std::max(first, last));
+      score = sample(grid);
+    } else {
+      for (;;) {  // climb the grid uphill, within the window
+        const double here = sample(grid);
+        const double left = grid > first ? sample(grid - 1) : -2.0;
+        const double right = grid < last ? sample(grid + 1) : -2.0;
+        if (right > here && right >= left) {
+          ++grid;
+        } else if (left > here) {
+          --grid;
+        } else {
+          break;
+        }
+      }
+      const double before = sample(grid - 1);
+      const double after = sample(grid + 1);
+      const double peak = sample(grid);
+      score = peak;
+      if (peak >= before && peak >= after) {
+        grid_maximum = true;
+        // Parabola through the grid maximum and its neighbours.
+        const double curvature = before - 2.0 * peak + after;
+        double offset = 0.0;
+        if (curvature < 0.0) offset = std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5);
+        shift = (static_cast<double>(grid) + offset) * step;
+      } else {
+        // The climb stopped at the window's edge: e rises beyond it.
+        shift = after > peak ? hi : lo;
+      }
+      shift = std::clamp(shift, lo, hi);
+    }
+    bool interior = false;  // converged on a local maximum strictly inside the window
+    bool reused = false;
+    if (grid_maximum) {
+      for (size_t r = 0; r < num_refined; ++r) {
+        if (refined[r].grid_index != wrap_index(grid)) continue;
+        double offset = std::fmod(refined[r].shift - start, length);
+        if (offset < -0.5 * length) offset += length;
+        if (offset >= 0.5 * length) offset -= length;
+        if (std::abs(offset) <= max_offset_bins) {
+          shift = refined[r].shift;
+          score = refined[r].score;
+          reused = true;
+        }
+        break;
+      }
+    }
+    if (!reused && band_limited) {
+      // Safeguarded Newton ascent on the exact band-limited e, inside the window: Newton steps
+      // where e is concave, half-grid steps uphill where it is not, halving back on overshoot.
+      constexpr int kMaxEvaluations = 6;
+      double best_shift = shift;
+      double best_score = -std::numeric_limits<double>::infinity();
+      for (int evaluation = 0; evaluation < kMaxEvaluations; ++evaluation) {
+        const BandLimitedValue e = EvaluateBandLimited(products, omega, shift);
+        if (e.value < best_score) {
+          shift = 0.5 * (shift + best_shift);
+          continue;
+        }
+        best_shift = shift;
+        best_score = e.value;
+        double move = 0.0;
+        if (e.bend < 0.0) {
+          move = std::clamp(-e.slope / e.bend, -step, step);
+        } else if (e.slope != 0.0) {
+          move = e.slope > 0.0 ? 0.5 * step : -0.5 * step;
+        }
+        const double next = std::clamp(shift + move, lo, hi);
+        // Converged: 0.01 bin from the maximum, e is below its peak by ~1e-9.
+        if (std::abs(next - shift) < 1e-2) {
+          interior = e.bend < 0.0 && next > lo && next < hi;
+          break;
+        }
+        shift = next;
+      }
+      shift = best_shift;
+      score = best_score;
+    } else if (!reused) {
+      interior = grid_maximum && shift > lo && shift < hi;
+    }
+    shift = wrap_shift(shift);
+    if (interior && grid_maximum && num_refined < refined.size()) {
+      refined[num_refined++] = {wrap_index(grid), shift, score};
+    }
+    auto shift_bins = static_cast<float>(shift);
+    if (shift_bins >= static_cast<float>(length_)) shift_bins = 0.0f;  // rounding up to M
+    peaks[i] = {static_cast<float>(std::min(score, 1.0)), shift_bins};
+  }
 }
 
 float CircularCorrelator::ScoreAtShift(const SignatureSpectrum& query,

@@ -77,6 +77,22 @@ class CircularCorrelator {
   /// without, over the M integer shifts with a parabola through the peak.
   CorrelationPeak Peak(const SignatureSpectrum& query, const SignatureSpectrum& reference);
 
+  /// Local maxima of e near given shifts (the particle filter's roll tracking, filter/): for each
+  /// start shift s (bins, any real value), the local maximum reached by climbing e uphill from s,
+  /// searched within [s - max_offset_bins, s + max_offset_bins]. If e still rises at the edge of
+  /// that window the result is the best point on the edge side, so a roll never jumps further than
+  /// max_offset_bins (a symmetric shape's other, possibly higher, peak is not taken).
+  /// peaks[i].shift_bins is in [0, M), peaks[i].score is e there.
+  /// Cost: one correlation on a grid (with smoothing the short band-limited inverse FFT of Peak,
+  /// every M / L bins; without, every bin), shared by all starts, then per distinct local maximum
+  /// reached the refinement Peak does (Newton steps on the exact band-limited e with smoothing, a
+  /// parabola through the grid peak without; there the score is the grid sample's). Starts that
+  /// climb to the same grid maximum share its refinement, so several particles on one view cost
+  /// little more than one.
+  void LocalPeaks(const SignatureSpectrum& query, const SignatureSpectrum& reference,
+                  std::span<const double> start_shifts_bins, double max_offset_bins,
+                  std::span<CorrelationPeak> peaks);
+
   /// e(n) at one shift, O(M), from the spectra (no FFT). Used to score a known roll.
   float ScoreAtShift(const SignatureSpectrum& query, const SignatureSpectrum& reference,
                      double shift_bins) const;

@@ -155,6 +155,106 @@ TEST_P(CorrelatorTest, ScoreAtShiftAgreesWithTheCorrelationAtIntegerShifts) {
   }
 }
 
+TEST_P(CorrelatorTest, LocalPeakNearTheTruePeakEqualsTheGlobalPeak) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum reference = correlator.Transform(SmoothSignature(31, length));
+  for (double shift : {0.0, 3.3, 500.0, 998.6}) {
+    const SignatureSpectrum query = correlator.Transform(SmoothSignature(31, length, shift));
+    const CorrelationPeak global = correlator.Peak(query, reference);
+    // Starts on both sides of the peak, also across the wrap-around at 0.
+    const std::vector<double> starts = {shift - 8.0, shift - 1.0, shift, shift + 2.5,
+                                        shift + 8.0 + length};
+    std::vector<CorrelationPeak> local(starts.size());
+    correlator.LocalPeaks(query, reference, starts, 15.0, local);
+    for (size_t i = 0; i < starts.size(); ++i) {
+      EXPECT_NEAR(CircularDifference(local[i].shift_bins, global.shift_bins, length), 0.0, 0.05)
+          << "shift " << shift << " start " << starts[i];
+      EXPECT_NEAR(local[i].score, global.score, 1e-4) << "shift " << shift;
+      EXPECT_GE(local[i].shift_bins, 0.0f);
+      EXPECT_LT(local[i].shift_bins, static_cast<float>(length));
+    }
+  }
+}
+
+// A signature with a two-fold symmetry has two equal peaks half a turn apart: the local search
+// keeps the one near its start, where the global search may take either.
+TEST_P(CorrelatorTest, LocalPeakStaysOnTheNearPeakOfASymmetricShape) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  std::vector<float> symmetric = SmoothSignature(41, length);
+  for (int x = 0; x < length / 2; ++x) {
+    symmetric[static_cast<size_t>(x + length / 2)] = symmetric[static_cast<size_t>(x)];
+  }
+  // The two halves are identical, so e has period M/2.
+  const SignatureSpectrum reference = correlator.Transform(symmetric);
+  std::vector<float> rotated(symmetric.size());
+  for (int x = 0; x < length; ++x) {
+    rotated[static_cast<size_t>(x)] = symmetric[static_cast<size_t>((x + 120) % length)];
+  }
+  const SignatureSpectrum query = correlator.Transform(rotated);
+  const std::vector<double> starts = {115.0, 126.0, 617.0, 622.0};
+  std::vector<CorrelationPeak> local(starts.size());
+  correlator.LocalPeaks(query, reference, starts, 20.0, local);
+  EXPECT_NEAR(CircularDifference(local[0].shift_bins, 120.0, length), 0.0, 0.2);
+  EXPECT_NEAR(CircularDifference(local[1].shift_bins, 120.0, length), 0.0, 0.2);
+  EXPECT_NEAR(CircularDifference(local[2].shift_bins, 620.0, length), 0.0, 0.2);
+  EXPECT_NEAR(CircularDifference(local[3].shift_bins, 620.0, length), 0.0, 0.2);
+  for (const CorrelationPeak& peak : local) EXPECT_GT(peak.score, 0.999f);
+}
+
+TEST_P(CorrelatorTest, LocalPeakIsAMaximumInsideItsWindowOrOnItsEdge) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum reference = correlator.Transform(SmoothSignature(51, length));
+  const SignatureSpectrum query = correlator.Transform(SmoothSignature(52, length, 300.0));
+  std::vector<float> e(static_cast<size_t>(length));
+  correlator.Correlate(query, reference, e);
+  auto e_at = [&](long bin) { return e[static_cast<size_t>((bin % length + length) % length)]; };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(0.0, length);
+  std::vector<double> starts(60);
+  for (double& start : starts) start = uniform(rng);
+  for (double window : {0.0, 0.4, 3.0, 12.0, 40.0}) {
+    std::vector<CorrelationPeak> local(starts.size());
+    correlator.LocalPeaks(query, reference, starts, window, local);
+    for (size_t i = 0; i < starts.size(); ++i) {
+      const double shift = local[i].shift_bins;
+      const double offset = CircularDifference(shift, starts[i], length);
+      EXPECT_LE(std::abs(offset), window + 1e-3) << "start " << starts[i];
+      const bool on_edge = std::abs(offset) >= window - 1e-3;
+      const double exact = correlator.ScoreAtShift(query, reference, shift);
+      if (std::abs(local[i].score - exact) <= 2e-5) {
+        // Refined on the band-limited correlation: a local maximum there, unless on the edge.
+        if (!on_edge) {
+          EXPECT_GE(local[i].score + 2e-5, correlator.ScoreAtShift(query, reference, shift - 0.3));
+          EXPECT_GE(local[i].score + 2e-5, correlator.ScoreAtShift(query, reference, shift + 0.3));
+        }
+      } else {
+        // Refined by a parabola: the score is a correlation sample next to the shift, a grid
+        // maximum unless on the edge.
+        const long bin = std::lround(shift);
+        const long near = local[i].score == e_at(bin) ? bin : std::lround(shift + 0.5) - 1;
+        ASSERT_TRUE(local[i].score == e_at(bin) || local[i].score == e_at(bin - 1) ||
+                    local[i].score == e_at(bin + 1))
+            << local[i].score << " at " << shift;
+        if (!on_edge && local[i].score == e_at(near)) {
+          EXPECT_GE(local[i].score, e_at(near - 1));
+          EXPECT_GE(local[i].score, e_at(near + 1));
+        }
+      }
+    }
+    // Starting one at a time gives the same as all at once (the shared refinements).
+    for (size_t i = 0; i < starts.size(); i += 7) {
+      CorrelationPeak alone;
+      correlator.LocalPeaks(query, reference, std::span<const double>(&starts[i], 1), window,
+                            std::span<CorrelationPeak>(&alone, 1));
+      EXPECT_NEAR(alone.score, local[i].score, 1e-6);
+      EXPECT_NEAR(CircularDifference(alone.shift_bins, local[i].shift_bins, length), 0.0, 0.05);
+    }
+  }
+}
+
 TEST_P(CorrelatorTest, ConstantSignaturesCorrelateToZero) {
   const int length = 100;
   CircularCorrelator correlator(length, GetParam());
@@ -172,7 +272,7 @@ TEST_P(CorrelatorTest, WrongLengthIsAnError) {
 std::vector<CorrelationOptions> Variants() {
   std::vector<CorrelationOptions> variants;
   for (FftBackend backend : AvailableFftBackends()) {
-    for (double smoothing : {0.0, 1.0, 3.0}) variants.push_back({smoothing, backend});
+    for (double smoothing : {0.0, 1.0, 2.0, 3.0}) variants.push_back({smoothing, backend});
   }
   return variants;
 }

@@ -32,8 +32,11 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
     for (int v = 0; v < num_views_; ++v) {
       const size_t index =
           static_cast<size_t>(m) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
-      usable_[index] = model.views[static_cast<size_t>(v)].status == SignatureStatus::kOk;
-      if (usable_[index]) correlator.Transform(model.Signature(v), &spectra_[index]);
+      // A view is searched if its silhouette was described and has a shape (not a perfect circle).
+      if (model.views[static_cast<size_t>(v)].status == SignatureStatus::kOk) {
+        correlator.Transform(model.Signature(v), &spectra_[index]);
+        usable_[index] = spectra_[index].has_variance;
+      }
     }
   }
 }

@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <random>
 
 #include "silpose/util/error.h"
+#include "silpose/util/hash.h"
 
 namespace silpose {
 namespace {
@@ -49,7 +52,8 @@ SyntheticDatabase MakeDatabase(int num_models, int num_views, int length, uint32
   ViewDatabase& database = result.database;
   database.parameters.signature.length = length;
   database.parameters.view_sphere.num_views = num_views;
-  database.sphere.directions.assign(static_cast<size_t>(num_views), Eigen::Vector3d::UnitX());
+  database.parameters.view_sphere.num_bins = std::min(10, num_views);
+  database.sphere = BuildViewSphere(database.parameters.view_sphere);
   std::mt19937 rng(seed);
   result.terms.resize(static_cast<size_t>(num_models));
   for (int m = 0; m < num_models; ++m) {
@@ -60,7 +64,11 @@ SyntheticDatabase MakeDatabase(int num_models, int num_views, int length, uint32
     for (int v = 0; v < num_views; ++v) {
       model.views[static_cast<size_t>(v)].status = SignatureStatus::kOk;
       std::vector<double> terms;
-      const std::vector<float> radii = RandomSignature(rng, length, 0.0, nullptr, &terms);
+      std::vector<float> radii = RandomSignature(rng, length, 0.0, nullptr, &terms);
+      double mean = 0.0;  // database signatures are divided by their mean
+      for (float r : radii) mean += r;
+      mean /= length;
+      for (float& r : radii) r = static_cast<float>(r / mean);
       std::copy(radii.begin(), radii.end(), model.MutableSignature(v).begin());
       result.terms[static_cast<size_t>(m)].push_back(terms);
     }
@@ -116,6 +124,96 @@ TEST(ViewMatcher, PrunedSearchReturnsExactlyTheExhaustiveResult) {
     }
   }
   EXPECT_LT(pruned_views, 30 * 3 * 1200) << "pruning never skipped a view";
+}
+
+TEST(ViewMatcher, PrunedSearchIsExactOnTheDefaultBandLimitedPath) {
+  // M = 1000 with the default 2-degree smoothing: peaks refined over continuous shifts.
+  const SyntheticDatabase synthetic = MakeDatabase(3, 200, 1000, 8);
+  const ViewSpectra spectra(synthetic.database);
+  ViewMatcher matcher(spectra);
+  std::mt19937 rng(9);
+  for (int trial = 0; trial < 20; ++trial) {
+    // Noisy near-copies of database views (the realistic case) and unrelated signatures.
+    std::vector<float> query =
+        trial % 2 == 0
+            ? RandomSignature(rng, 1000, 123.4, &synthetic.terms[1][static_cast<size_t>(trial)])
+            : RandomSignature(rng, 1000);
+    std::normal_distribution<float> noise(0.0f, 0.02f);
+    for (float& r : query) r += noise(rng);
+    const auto exhaustive = matcher.Match(query, {.top_k = 5, .exhaustive = true});
+    const auto pruned = matcher.Match(query, {.top_k = 5});
+    ASSERT_EQ(pruned.size(), exhaustive.size());
+    for (size_t i = 0; i < pruned.size(); ++i) {
+      EXPECT_EQ(pruned[i].model, exhaustive[i].model) << "trial " << trial << " rank " << i;
+      EXPECT_EQ(pruned[i].view, exhaustive[i].view) << "trial " << trial << " rank " << i;
+      EXPECT_EQ(pruned[i].score, exhaustive[i].score);
+    }
+  }
+}
+
+TEST(ViewMatcher, ADatabaseWithoutUsableViewsGivesNoCandidates) {
+  SyntheticDatabase synthetic = MakeDatabase(2, 20, 64, 10);
+  for (auto& model : synthetic.database.models) {
+    for (auto& view : model.views) view.status = SignatureStatus::kTooSmall;
+  }
+  const ViewSpectra spectra(synthetic.database);
+  ViewMatcher matcher(spectra);
+  std::mt19937 rng(11);
+  for (bool exhaustive : {false, true}) {
+    EXPECT_TRUE(
+        matcher.Match(RandomSignature(rng, 64), {.top_k = 3, .exhaustive = exhaustive}).empty());
+  }
+}
+
+TEST(ViewMatcher, ConstantSignaturesNeverBreakTheSearch) {
+  SyntheticDatabase synthetic = MakeDatabase(2, 30, 1000, 12);
+  // A database view that is a perfect circle (constant radii): no shape to correlate.
+  for (float& r : synthetic.database.models[0].MutableSignature(4)) r = 1.0f;
+  const ViewSpectra spectra(synthetic.database);
+  ViewMatcher matcher(spectra);
+  std::mt19937 rng(13);
+  for (bool exhaustive : {false, true}) {
+    const auto top =
+        matcher.Match(RandomSignature(rng, 1000), {.top_k = 60, .exhaustive = exhaustive});
+    EXPECT_EQ(top.size(), 59u);  // the circle is not a candidate
+    // A constant query matches nothing: every candidate scores 0 or the search returns none.
+    for (const auto& c :
+         matcher.Match(std::vector<float>(1000, 1.0f), {.top_k = 3, .exhaustive = exhaustive})) {
+      EXPECT_EQ(c.score, 0.0f);
+    }
+  }
+}
+
+// Every single-byte change of a database file whose checksum is then recomputed (so the change
+// reaches the parser) is either refused with an error or gives a database the matcher can search.
+TEST(ViewMatcher, CorruptedButChecksummedDatabasesAreRefusedOrSearchable) {
+  const SyntheticDatabase synthetic = MakeDatabase(2, 12, 32, 14);
+  const std::string bytes = synthetic.database.Serialize();
+  std::mt19937 rng(15);
+  const std::vector<float> query = RandomSignature(rng, 32);
+  int refused = 0;
+  for (size_t i = 20; i + 8 < bytes.size(); ++i) {
+    for (uint8_t change : {uint8_t{0x01}, uint8_t{0x80}, uint8_t{0xff}}) {
+      std::string corrupt = bytes;
+      corrupt[i] = static_cast<char>(corrupt[i] ^ change);
+      const uint64_t checksum = HashBytes(corrupt.data(), corrupt.size() - 8);
+      std::memcpy(corrupt.data() + corrupt.size() - 8, &checksum, 8);
+      try {
+        const ViewDatabase loaded = ViewDatabase::Deserialize(corrupt, "fuzz.db");
+        const ViewSpectra spectra(loaded);
+        ViewMatcher matcher(spectra);
+        const auto top = matcher.Match(query, {.top_k = 3});
+        for (const auto& c : top) {
+          ASSERT_GE(c.model, 0);
+          ASSERT_LT(c.view, loaded.num_views());
+          ASSERT_TRUE(std::isfinite(c.score) && std::isfinite(c.roll_deg));
+        }
+      } catch (const Error&) {
+        ++refused;
+      }
+    }
+  }
+  EXPECT_GT(refused, 0);
 }
 
 TEST(ViewMatcher, ModelSubsetAndUnusableViewsAreRespected) {
