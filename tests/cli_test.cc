@@ -78,7 +78,7 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, EveryCommandHasHelp) {
   for (const char* command :
-       {"", "build-db", "match", "render", "demo", "eval", "eval self-match"}) {
+       {"", "build-db", "match", "render", "demo", "eval", "eval self-match", "synth", "track"}) {
     const CommandResult run = Silpose(std::string(command) + " --help");
     EXPECT_EQ(run.exit_code, 0) << command;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << command << ": " << run.out;
@@ -193,6 +193,71 @@ TEST_F(CliTest, BadInputGivesOneClearLineAndANonZeroExit) {
     EXPECT_EQ(Lines(run.err), 1) << c.arguments << "\n" << run.err;
     EXPECT_NE(run.err.find(c.expected), std::string::npos) << c.arguments << "\n" << run.err;
   }
+}
+
+std::vector<std::vector<std::string>> ReadCsv(const std::string& path) {
+  std::ifstream file(path);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(file, line);) {
+    std::vector<std::string> fields;
+    std::stringstream stream(line);
+    for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
+    if (!line.empty() && line.back() == ',') fields.emplace_back();
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+// End to end: a synthetic flight around one model that switches to another half-way, tracked
+// with a fixed seed from no initial pose.
+TEST_F(CliTest, SynthThenTrackIdentifiesBothObjectsOfASwitchingSequence) {
+  const std::string sequence = Path("switch_sequence");
+  const CommandResult synth = Silpose("synth " + models_ + "/bunny.obj " + models_ +
+                                      "/hand.obj -o " + sequence + " --frames 60 --switch-at 30");
+  ASSERT_EQ(synth.exit_code, 0) << synth.err;
+  const std::string poses = Path("switch_poses.csv");
+  const CommandResult track =
+      Silpose("track -d " + database_ + " " + sequence + " -o " + poses + " --seed 3");
+  ASSERT_EQ(track.exit_code, 0) << track.err;
+  const auto rows = ReadCsv(poses);
+  ASSERT_EQ(rows.size(), 61u);
+  EXPECT_EQ(rows[0][0], "frame");
+  EXPECT_EQ(rows[0][8], "status");
+  for (int frame = 10; frame < 30; ++frame) {
+    EXPECT_EQ(rows[static_cast<size_t>(frame) + 1][1], "bunny") << "frame " << frame;
+  }
+  for (int frame = 40; frame < 60; ++frame) {
+    EXPECT_EQ(rows[static_cast<size_t>(frame) + 1][1], "hand") << "frame " << frame;
+  }
+  // The baseline matches every frame on its own.
+  const CommandResult brute = Silpose("track -d " + database_ + " " + sequence + " -o " +
+                                      Path("switch_brute.csv") + " --brute-force");
+  ASSERT_EQ(brute.exit_code, 0) << brute.err;
+  EXPECT_EQ(ReadCsv(Path("switch_brute.csv")).size(), 61u);
+}
+
+TEST_F(CliTest, TrackReportsFramesWithoutASilhouetteAndRefusesBadInput) {
+  const std::string folder = Path("blank_frames");
+  std::filesystem::create_directories(folder);
+  for (int i = 0; i < 3; ++i) {
+    cv::imwrite(folder + "/" + std::to_string(i) + ".png", cv::Mat::zeros(40, 40, CV_8UC1));
+  }
+  const std::string poses = Path("blank_poses.csv");
+  const CommandResult run = Silpose("track -d " + database_ + " " + folder + " -o " + poses);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto rows = ReadCsv(poses);
+  ASSERT_EQ(rows.size(), 4u);
+  for (size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_NE(rows[i][8].find("predicted"), std::string::npos) << rows[i][8];
+  }
+  const CommandResult missing =
+      Silpose("track -d " + database_ + " /nonexistent/frames -o " + poses);
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.err.find("/nonexistent/frames"), std::string::npos);
+  const CommandResult bad_particles =
+      Silpose("track -d " + database_ + " " + folder + " -o " + poses + " --particles 0");
+  EXPECT_NE(bad_particles.exit_code, 0);
+  EXPECT_EQ(Lines(bad_particles.err), 1) << bad_particles.err;
 }
 
 TEST_F(CliTest, DemoRunsOnTheSampleModelsAndFindsTheObjects) {

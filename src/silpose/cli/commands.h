@@ -13,6 +13,7 @@ void AddBuildDbCommand(CLI::App& app);
 void AddMatchCommand(CLI::App& app);
 void AddRenderCommand(CLI::App& app);
 void AddSynthCommand(CLI::App& app);
+void AddTrackCommand(CLI::App& app);
 void AddDemoCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
 

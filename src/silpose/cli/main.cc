@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   silpose::cli::AddMatchCommand(app);
   silpose::cli::AddRenderCommand(app);
   silpose::cli::AddSynthCommand(app);
+  silpose::cli::AddTrackCommand(app);
   silpose::cli::AddDemoCommand(app);
   silpose::cli::AddEvalCommand(app);
 

@@ -299,13 +299,14 @@ void CircularCorrelator::LocalPeaks(const SignatureSpectrum& query,
     // start towards it (or peaks between them).
     const auto below = static_cast<int64_t>(std::floor(start / step));
     int64_t grid = sample(below + 1) > sample(below) ? below + 1 : below;
-    double shift = start;   // where the refinement starts
+    double shift = start;  // where the refinement starts
     double score = sample(grid);
     bool grid_maximum = false;  // the climb ended on a grid maximum inside the window
     if (grid < first || grid > last) {
       // Uphill lies outside the window (or no grid sample is inside): refine from the edge.
       shift = grid < first ? lo : hi;
-      grid = std::clamp(static_cast<int64_t>(std::llround(shift / step)), first, std::max(first, last));
+      grid = std::clamp(static_cast<int64_t>(std::llround(shift / step)), first,
+                        std::max(first, last));
       score = sample(grid);
     } else {
       for (;;) {  // climb the grid uphill, within the window

@@ -1,0 +1,672 @@
+#include "silpose/filter/particle_filter.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <sstream>
+#include <unordered_set>
+
+#include "silpose/geometry/view_frame.h"
+#include "silpose/util/error.h"
+
+namespace silpose {
+
+bool ParticleFilterOptions::Check(std::string* error) const {
+  std::ostringstream message;
+  auto in = [](double value, double lo, double hi) {
+    return std::isfinite(value) && value >= lo && value <= hi;
+  };
+  if (particles_per_object < 1) {
+    message << "particles per object must be >= 1, got " << particles_per_object;
+  } else if (!(std::isfinite(likelihood_sharpness) && likelihood_sharpness > 0.0)) {
+    message << "likelihood sharpness must be > 0, got " << likelihood_sharpness;
+  } else if (!in(likelihood_floor, 0.0, 1.0)) {
+    message << "likelihood floor must be in [0, 1], got " << likelihood_floor;
+  } else if (!in(resample_threshold, 0.0, 1.0)) {
+    message << "resample threshold must be in [0, 1], got " << resample_threshold;
+  } else if (!in(stay_probability, 0.0, 1.0)) {
+    message << "stay probability must be in [0, 1], got " << stay_probability;
+  } else if (!in(jump_probability, 0.0, 1.0)) {
+    message << "jump probability must be in [0, 1], got " << jump_probability;
+  } else if (!in(roll_noise_deg, 0.0, 180.0)) {
+    message << "roll noise must be in [0, 180] degrees, got " << roll_noise_deg;
+  } else if (!in(roll_search_deg, 0.0, 180.0)) {
+    message << "roll search window must be in [0, 180] degrees, got " << roll_search_deg;
+  } else if (!(in(object_switch_probability, 0.0, 1.0) && object_switch_probability < 1.0)) {
+    message << "object switch probability must be in [0, 1), got " << object_switch_probability;
+  } else if (min_particles_per_object < 0 || min_particles_per_object > particles_per_object) {
+    message << "min particles per object must be in [0, particles per object = "
+            << particles_per_object << "], got " << min_particles_per_object;
+  } else if (!in(reseed_fraction, 0.0, 1.0)) {
+    message << "reseed fraction must be in [0, 1], got " << reseed_fraction;
+  } else if (guided_candidates < 1) {
+    message << "guided candidates must be >= 1, got " << guided_candidates;
+  } else if (estimate_rule != EstimateRule::kMostProbableArea &&
+             estimate_rule != EstimateRule::kHeaviestParticle) {
+    message << "unknown estimate rule " << static_cast<int>(estimate_rule);
+  } else if (!(std::isfinite(kld_epsilon) && kld_epsilon > 0.0)) {
+    message << "KLD epsilon must be > 0, got " << kld_epsilon;
+  } else if (!(std::isfinite(kld_delta) && kld_delta > 0.0 && kld_delta < 0.5)) {
+    message << "KLD delta must be in (0, 0.5), got " << kld_delta;
+  } else if (max_particles_per_object < particles_per_object) {
+    message << "max particles per object must be >= particles per object = " << particles_per_object
+            << ", got " << max_particles_per_object;
+  } else if (max_history_frames < 0) {
+    message << "max history frames must be >= 0, got " << max_history_frames;
+  } else {
+    return true;
+  }
+  if (error != nullptr) *error = message.str();
+  return false;
+}
+
+HistoryNode::HistoryNode(const PoseState& state, std::shared_ptr<const HistoryNode> parent)
+    : state_(state), parent_(std::move(parent)) {}
+
+HistoryNode::~HistoryNode() {
+  // Destroying the parent from here would recurse once per frame of history and overflow the
+  // stack on long sequences. Instead walk up while this chain is the only owner: detach each
+  // parent's own parent before the parent dies, so every destructor finds an empty link.
+  std::shared_ptr<const HistoryNode> next = std::move(parent_);
+  while (next && next.use_count() == 1) {
+    std::shared_ptr<const HistoryNode> after = std::move(next->parent_);
+    next = std::move(after);
+  }
+}
+
+ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spectra,
+                               const ParticleFilterOptions& options)
+    : sphere_(sphere),
+      spectra_(spectra),
+      options_(options),
+      num_objects_(spectra.num_models()),
+      num_views_(spectra.num_views()),
+      correlator_(spectra.signature_length(), spectra.options()),
+      rng_(options.seed) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError("invalid particle filter options: ", error);
+  if (num_objects_ < 1) ThrowError("the particle filter needs at least one model");
+  if (sphere.num_views() != num_views_ ||
+      sphere.neighbour_offsets.size() != static_cast<size_t>(num_views_) + 1 ||
+      sphere.bin_of_view.size() != static_cast<size_t>(num_views_)) {
+    ThrowError("the view sphere (", sphere.num_views(), " views) does not match the spectra (",
+               num_views_, " views)");
+  }
+  // TransportRoll(a, r, b) = r + TransportRoll(a, 0, b): the transport rotates the whole camera,
+  // and a roll is a rotation about the optical axis applied after it (geometry/view_frame.h).
+  transport_offset_deg_.resize(sphere.neighbour_indices.size());
+  for (int a = 0; a < num_views_; ++a) {
+    for (uint32_t e = sphere.neighbour_offsets[static_cast<size_t>(a)];
+         e < sphere.neighbour_offsets[static_cast<size_t>(a) + 1]; ++e) {
+      transport_offset_deg_[e] = TransportRoll(sphere.directions[static_cast<size_t>(a)], 0.0,
+                                               sphere.directions[sphere.neighbour_indices[e]]);
+    }
+  }
+  if (options.guided_reseeding) {
+    // The first harmonics' magnitudes of every view, contiguous per object (BestViewOfObject).
+    for (int m = 0; m < num_objects_ && ranking_harmonics_ == 0; ++m) {
+      for (int v = 0; v < num_views_; ++v) {
+        if (!spectra.Usable(m, v)) continue;
+        ranking_harmonics_ = std::min<Eigen::Index>(
+            kRankingHarmonics, static_cast<Eigen::Index>(spectra.Get(m, v).magnitudes.size()));
+        break;
+      }
+    }
+    ranking_table_.assign(static_cast<size_t>(num_objects_),
+                          Eigen::MatrixXf::Zero(ranking_harmonics_, num_views_));
+    for (int m = 0; m < num_objects_; ++m) {
+      for (int v = 0; v < num_views_; ++v) {
+        if (!spectra.Usable(m, v)) continue;
+        const std::vector<float>& magnitudes = spectra.Get(m, v).magnitudes;
+        for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
+          ranking_table_[static_cast<size_t>(m)](k, v) = magnitudes[static_cast<size_t>(k)];
+        }
+      }
+    }
+  }
+  group_head_.assign(static_cast<size_t>(num_objects_) * static_cast<size_t>(num_views_), -1);
+  const int total = options.particles_per_object * num_objects_;
+  particles_.reserve(static_cast<size_t>(total));
+  for (int object = 0; object < num_objects_; ++object) {
+    for (int i = 0; i < options.particles_per_object; ++i) {
+      Particle particle = FreshParticle(object);
+      particle.weight = 1.0 / total;
+      particles_.push_back(std::move(particle));
+    }
+  }
+}
+
+ParticleFilter::~ParticleFilter() = default;
+
+Particle ParticleFilter::FreshParticle(int object) {
+  Particle particle;
+  particle.object = object;
+  particle.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
+  return particle;
+}
+
+FilterEstimate ParticleFilter::Step(const SignatureSpectrum& frame) {
+  const size_t expected = static_cast<size_t>(spectra_.signature_length() / 2 + 1);
+  if (frame.coefficients.size() != expected) {
+    ThrowError("frame spectrum has ", frame.coefficients.size(),
+               " coefficients, the database's signatures need ", expected);
+  }
+  return Advance(&frame);
+}
+
+FilterEstimate ParticleFilter::Step(std::span<const float> radii) {
+  correlator_.Transform(radii, &frame_spectrum_);
+  return Advance(&frame_spectrum_);
+}
+
+FilterEstimate ParticleFilter::Predict() { return Advance(nullptr); }
+
+FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
+  if (frame_ > 0) PredictParticles();
+  if (frame != nullptr) MeasureParticles(*frame);
+
+  FilterEstimate estimate;
+  estimate.frame = frame_;
+  estimate.measured = frame != nullptr;
+  estimate.object_probability.assign(static_cast<size_t>(num_objects_), 0.0);
+  estimate.particles_per_object.assign(static_cast<size_t>(num_objects_), 0);
+  double sum_squares = 0.0;
+  size_t best = 0;
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    const Particle& p = particles_[i];
+    estimate.object_probability[static_cast<size_t>(p.object)] += p.weight;
+    ++estimate.particles_per_object[static_cast<size_t>(p.object)];
+    sum_squares += p.weight * p.weight;
+    const Particle& b = particles_[best];
+    if (p.weight > b.weight || (p.weight == b.weight && p.score > b.score)) best = i;
+  }
+  if (options_.estimate_rule == EstimateRule::kMostProbableArea) {
+    best = MostProbableAreaParticle(estimate);
+  }
+  estimate.num_particles = static_cast<int>(particles_.size());
+  estimate.effective_particles = sum_squares > 0.0 ? 1.0 / sum_squares : 0.0;
+
+  // History: one node per particle for this frame.
+  for (Particle& p : particles_) {
+    p.history = std::make_shared<const HistoryNode>(
+        PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known, p.score},
+        std::move(p.history));
+  }
+  const Particle& chosen = particles_[best];
+  estimate.object = chosen.object;
+  estimate.view = chosen.view;
+  estimate.roll_deg = chosen.roll_known ? chosen.roll_deg : 0.0;
+  estimate.roll_known = chosen.roll_known;
+  estimate.score = chosen.score;
+  estimate.weight = chosen.weight;
+  best_history_ = chosen.history;
+
+  if (estimate.effective_particles <
+      options_.resample_threshold * static_cast<double>(particles_.size())) {
+    Resample(estimate.object_probability, frame);
+    estimate.resampled = true;
+  }
+  estimate.num_particles_after = static_cast<int>(particles_.size());
+  if (options_.max_history_frames > 0 && (frame_ + 1) % options_.max_history_frames == 0) {
+    CutHistory(frame_ - options_.max_history_frames + 1);
+  }
+  ++frame_;
+  return estimate;
+}
+
+size_t ParticleFilter::MostProbableAreaParticle(const FilterEstimate& estimate) {
+  const auto object = static_cast<int>(
+      std::max_element(estimate.object_probability.begin(), estimate.object_probability.end()) -
+      estimate.object_probability.begin());
+  // Weight per view of that object (scratch kept at 0 between calls).
+  view_mass_.resize(static_cast<size_t>(num_views_), 0.0);
+  touched_groups_.clear();
+  for (const Particle& p : particles_) {
+    if (p.object != object) continue;
+    double& mass = view_mass_[static_cast<size_t>(p.view)];
+    if (mass == 0.0) touched_groups_.push_back(p.view);
+    mass += p.weight + std::numeric_limits<double>::denorm_min();  // > 0 even for weight 0
+  }
+  auto area_mass = [&](int view) {
+    double mass = view_mass_[static_cast<size_t>(view)];
+    for (const uint32_t n : sphere_.Neighbours(view)) mass += view_mass_[n];
+    return mass;
+  };
+  int centre = -1;
+  double centre_mass = -1.0;
+  for (const int32_t view : touched_groups_) {
+    const double mass = area_mass(view);
+    if (mass > centre_mass || (mass == centre_mass && view < centre)) {
+      centre_mass = mass;
+      centre = view;
+    }
+  }
+  for (const int32_t view : touched_groups_) view_mass_[static_cast<size_t>(view)] = 0.0;
+  const std::span<const uint32_t> neighbours = sphere_.Neighbours(centre);
+  size_t best = particles_.size();
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    const Particle& p = particles_[i];
+    if (p.object != object) continue;
+    if (p.view != centre && std::find(neighbours.begin(), neighbours.end(),
+                                      static_cast<uint32_t>(p.view)) == neighbours.end()) {
+      continue;
+    }
+    if (best == particles_.size() || p.weight > particles_[best].weight ||
+        (p.weight == particles_[best].weight && p.score > particles_[best].score)) {
+      best = i;
+    }
+  }
+  SILPOSE_ASSERT(best < particles_.size());
+  return best;
+}
+
+void ParticleFilter::PredictParticles() {
+  // Object identity: mix the object masses towards uniform.
+  const double switch_probability = options_.object_switch_probability;
+  if (num_objects_ > 1 && switch_probability > 0.0) {
+    std::vector<double> mass(static_cast<size_t>(num_objects_), 0.0);
+    std::vector<int> count(static_cast<size_t>(num_objects_), 0);
+    for (const Particle& p : particles_) {
+      mass[static_cast<size_t>(p.object)] += p.weight;
+      ++count[static_cast<size_t>(p.object)];
+    }
+    std::vector<double> scale(static_cast<size_t>(num_objects_), 0.0);
+    std::vector<double> share(static_cast<size_t>(num_objects_), 0.0);
+    for (size_t o = 0; o < mass.size(); ++o) {
+      const double target =
+          (1.0 - switch_probability) * mass[o] + switch_probability / num_objects_;
+      if (mass[o] > 0.0) {
+        scale[o] = target / mass[o];
+      } else if (count[o] > 0) {
+        share[o] = target / count[o];  // all its weights underflowed: spread the new mass evenly
+      }
+    }
+    double total = 0.0;
+    for (Particle& p : particles_) {
+      const auto o = static_cast<size_t>(p.object);
+      p.weight = mass[o] > 0.0 ? p.weight * scale[o] : share[o];
+      total += p.weight;
+    }
+    // Objects without particles (floor 0) take no mass: renormalise.
+    if (total > 0.0) {
+      for (Particle& p : particles_) p.weight /= total;
+    }
+  }
+  // Views and rolls.
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> roll_noise(0.0, options_.roll_noise_deg);
+  for (Particle& p : particles_) {
+    if (options_.jump_probability > 0.0 && uniform(rng_) < options_.jump_probability) {
+      p.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
+      p.roll_known = false;
+      p.roll_deg = 0.0;
+      continue;
+    }
+    if (uniform(rng_) >= options_.stay_probability) {
+      const uint32_t begin = sphere_.neighbour_offsets[static_cast<size_t>(p.view)];
+      const uint32_t end = sphere_.neighbour_offsets[static_cast<size_t>(p.view) + 1];
+      if (end > begin) {
+        const uint32_t edge =
+            begin + std::uniform_int_distribution<uint32_t>(0, end - begin - 1)(rng_);
+        p.view = static_cast<int>(sphere_.neighbour_indices[edge]);
+        p.roll_deg += transport_offset_deg_[edge];
+      }
+    }
+    if (p.roll_known) {
+      if (options_.roll_noise_deg > 0.0) p.roll_deg += roll_noise(rng_);
+      p.roll_deg = WrapDegrees(p.roll_deg);
+    }
+  }
+}
+
+void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
+  // A signature without variance (a nearly circular silhouette after smoothing) says nothing.
+  if (!frame.has_variance) return;
+  const int length = spectra_.signature_length();
+  const double bins_per_degree = length / 360.0;
+  const double window_bins = options_.roll_search_deg * bins_per_degree;
+  // Group the particles by (object, view): linked lists through group_next_.
+  group_next_.resize(particles_.size());
+  touched_groups_.clear();
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    const Particle& p = particles_[i];
+    const auto key = static_cast<size_t>(p.object) * static_cast<size_t>(num_views_) +
+                     static_cast<size_t>(p.view);
+    if (group_head_[key] < 0) touched_groups_.push_back(static_cast<int32_t>(key));
+    group_next_[i] = group_head_[key];
+    group_head_[key] = static_cast<int32_t>(i);
+  }
+  for (const int32_t key : touched_groups_) {
+    const int object = key / num_views_;
+    const int view = key % num_views_;
+    const int32_t head = group_head_[static_cast<size_t>(key)];
+    group_head_[static_cast<size_t>(key)] = -1;
+    if (!spectra_.Usable(object, view)) {
+      for (int32_t i = head; i >= 0; i = group_next_[static_cast<size_t>(i)]) {
+        particles_[static_cast<size_t>(i)].score = -1.0f;
+      }
+      continue;
+    }
+    const SignatureSpectrum& reference = spectra_.Get(object, view);
+    group_starts_.clear();
+    group_members_.clear();
+    bool any_unknown = false;
+    for (int32_t i = head; i >= 0; i = group_next_[static_cast<size_t>(i)]) {
+      const Particle& p = particles_[static_cast<size_t>(i)];
+      if (p.roll_known) {
+        group_members_.push_back(i);
+        group_starts_.push_back(p.roll_deg * bins_per_degree);
+      } else {
+        any_unknown = true;
+      }
+    }
+    if (!group_members_.empty()) {
+      group_peaks_.resize(group_members_.size());
+      correlator_.LocalPeaks(frame, reference, group_starts_, window_bins, group_peaks_);
+      for (size_t m = 0; m < group_members_.size(); ++m) {
+        Particle& p = particles_[static_cast<size_t>(group_members_[m])];
+        p.roll_deg = group_peaks_[m].RollDeg(length);
+        p.score = group_peaks_[m].score;
+      }
+    }
+    if (any_unknown) {
+      const CorrelationPeak peak = correlator_.Peak(frame, reference);
+      for (int32_t i = head; i >= 0; i = group_next_[static_cast<size_t>(i)]) {
+        Particle& p = particles_[static_cast<size_t>(i)];
+        if (p.roll_known) continue;
+        p.roll_deg = peak.RollDeg(length);
+        p.roll_known = true;
+        p.score = peak.score;
+      }
+    }
+  }
+  // w <- w (exp(lambda (s - s_best)) + floor): exp(lambda (s - 1)) up to normalisation, taken
+  // relative to the best score so that the best particle's factor is 1 + floor, nothing underflows
+  // needlessly, and the floor is relative to the best particle (the header explains why).
+  double reference = -1.0;
+  for (const Particle& p : particles_) {
+    reference = std::max(reference, static_cast<double>(p.score));
+  }
+  const double lambda = options_.likelihood_sharpness;
+  const double floor = options_.likelihood_floor;
+  double total = 0.0;
+  for (Particle& p : particles_) {
+    p.weight *= std::exp(lambda * (static_cast<double>(p.score) - reference)) + floor;
+    total += p.weight;
+  }
+  if (total > 0.0 && std::isfinite(total)) {
+    for (Particle& p : particles_) p.weight /= total;
+  } else {
+    // Every weight underflowed (cannot happen while the best particle has weight): start afresh.
+    for (Particle& p : particles_) p.weight = 1.0 / static_cast<double>(particles_.size());
+  }
+}
+
+ParticleFilter::CandidateView ParticleFilter::BestViewOfObject(const SignatureSpectrum& frame,
+                                                               int object) {
+  CandidateView best;
+  if (!frame.has_variance || ranking_harmonics_ == 0) return best;
+  // Rank the object's views by the low-harmonic part of the spectral bound: the frame's weighted
+  // magnitudes (as CircularCorrelator::Transform(..., weighted = true) makes them) against every
+  // view's, one matrix-vector product over a contiguous table.
+  const size_t half = frame.coefficients.size();
+  Eigen::VectorXf frame_magnitudes(ranking_harmonics_);
+  for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
+    const float weight = (k == 0 || static_cast<size_t>(k) == half - 1) ? 1.0f : 2.0f;
+    frame_magnitudes[k] = weight * std::abs(frame.coefficients[static_cast<size_t>(k)]);
+  }
+  ranking_.resize(num_views_);
+  ranking_.noalias() = ranking_table_[static_cast<size_t>(object)].transpose() * frame_magnitudes;
+  bounds_.clear();
+  for (int v = 0; v < num_views_; ++v) {
+    if (spectra_.Usable(object, v)) bounds_.push_back({ranking_[v], v});
+  }
+  // Correlate the guided_candidates best ranked views exactly; keep the best.
+  const auto candidates = std::min(bounds_.size(), static_cast<size_t>(options_.guided_candidates));
+  std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(candidates),
+                    bounds_.end(), std::greater<>());
+  for (size_t c = 0; c < candidates; ++c) {
+    const int view = bounds_[c].second;
+    const CorrelationPeak peak = correlator_.Peak(frame, spectra_.Get(object, view));
+    if (best.view < 0 || peak.score > best.score) {
+      best.view = view;
+      best.score = peak.score;
+      best.roll_deg = peak.RollDeg(spectra_.signature_length());
+    }
+  }
+  return best;
+}
+
+void ParticleFilter::Resample(const std::vector<double>& object_mass,
+                              const SignatureSpectrum* frame) {
+  const auto num_objects = static_cast<size_t>(num_objects_);
+  const int floor = options_.min_particles_per_object;
+  std::vector<size_t> begin(num_objects + 1, particles_.size());
+  for (size_t i = particles_.size(); i-- > 0;) {
+    begin[static_cast<size_t>(particles_[i].object)] = i;
+  }
+  for (size_t o = num_objects; o-- > 0;) begin[o] = std::min(begin[o], begin[o + 1]);
+
+  // A joint systematic draw decides how many particles each object deserves.
+  std::vector<double> weights(particles_.size());
+  for (size_t i = 0; i < particles_.size(); ++i) weights[i] = particles_[i].weight;
+  const int fixed_total = options_.particles_per_object * num_objects_;
+  const int draws = options_.adaptive ? static_cast<int>(particles_.size()) : fixed_total;
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const std::vector<int> joint = SystematicResampleCounts(weights, draws, uniform(rng_));
+  std::vector<int> drawn(num_objects, 0);
+  std::vector<int> count(num_objects, 0);
+  std::vector<uint8_t> bin_hit(static_cast<size_t>(std::max(1, sphere_.num_bins())), 0);
+  for (size_t o = 0; o < num_objects; ++o) {
+    std::fill(bin_hit.begin(), bin_hit.end(), 0);
+    int bins = 0;
+    for (size_t i = begin[o]; i < begin[o + 1]; ++i) {
+      if (joint[i] == 0) continue;
+      drawn[o] += joint[i];
+      const uint32_t bin = sphere_.bin_of_view[static_cast<size_t>(particles_[i].view)];
+      if (bin < bin_hit.size() && bin_hit[bin] == 0) {
+        bin_hit[bin] = 1;
+        ++bins;
+      }
+    }
+    if (options_.adaptive) {
+      count[o] = drawn[o] > 0
+                     ? std::clamp(KldParticleCount(bins, options_.kld_epsilon, options_.kld_delta),
+                                  floor, options_.max_particles_per_object)
+                     : floor;
+    } else {
+      count[o] = std::max(drawn[o], floor);
+    }
+  }
+  if (!options_.adaptive) {
+    // The floor's extra particles come from the objects with the most.
+    int excess = std::accumulate(count.begin(), count.end(), 0) - fixed_total;
+    while (excess > 0) {
+      const auto largest =
+          static_cast<size_t>(std::max_element(count.begin(), count.end()) - count.begin());
+      const int take = std::min(excess, count[largest] - floor);
+      if (take <= 0) break;
+      count[largest] -= take;
+      excess -= take;
+    }
+  }
+
+  std::vector<Particle> resampled;
+  resampled.reserve(static_cast<size_t>(std::accumulate(count.begin(), count.end(), 0)));
+  for (size_t o = 0; o < num_objects; ++o) {
+    if (count[o] == 0) continue;
+    const std::span<const double> own(weights.data() + begin[o], begin[o + 1] - begin[o]);
+    const double own_mass = std::accumulate(own.begin(), own.end(), 0.0);
+    int fresh = 0;
+    if (drawn[o] < floor) {
+      fresh = static_cast<int>(std::lround(options_.reseed_fraction * count[o]));
+    }
+    const bool guided = options_.guided_reseeding && frame != nullptr && frame->has_variance;
+    if (guided) fresh = std::clamp(fresh, 1, count[o]);
+    const double weight = object_mass[o] / count[o];
+    if (own.empty()) {
+      // No particle to descend from (a floor of 0 before): start new histories.
+      for (int f = 0; f < count[o]; ++f) {
+        Particle particle = FreshParticle(static_cast<int>(o));
+        particle.weight = weight;
+        resampled.push_back(std::move(particle));
+      }
+      continue;
+    }
+    // Draw all count[o] by weight (evenly if every weight underflowed); `fresh` of them, chosen at
+    // random, then move (the first to the guided view, the others to uniform views), keeping
+    // their history up to this frame.
+    const std::vector<double> even(own.size(), 1.0);
+    const std::vector<int> copies = SystematicResampleCounts(
+        own_mass > 0.0 ? own : std::span<const double>(even), count[o], uniform(rng_));
+    const size_t first_new = resampled.size();
+    for (size_t i = 0; i < copies.size(); ++i) {
+      for (int c = 0; c < copies[i]; ++c) {
+        resampled.push_back(particles_[begin[o] + i]);
+        resampled.back().weight = weight;
+      }
+    }
+    // Which draws are reseeded: a random subset, so the best hypotheses are not always the ones.
+    for (int f = 0; f < fresh; ++f) {
+      const size_t remaining = resampled.size() - first_new - static_cast<size_t>(f);
+      const size_t pick = first_new + static_cast<size_t>(f) +
+                          std::uniform_int_distribution<size_t>(0, remaining - 1)(rng_);
+      std::swap(resampled[first_new + static_cast<size_t>(f)], resampled[pick]);
+      Particle& particle = resampled[first_new + static_cast<size_t>(f)];
+      particle.roll_known = false;
+      particle.roll_deg = 0.0;
+      particle.score = 0.0f;
+      if (f == 0 && guided) {
+        // The object's best view for this frame (exact, pruned by the spectral bound).
+        const CandidateView candidate = BestViewOfObject(*frame, static_cast<int>(o));
+        if (candidate.view >= 0) {
+          particle.view = candidate.view;
+          particle.roll_deg = candidate.roll_deg;
+          particle.roll_known = true;
+          particle.score = candidate.score;
+          continue;
+        }
+      }
+      particle.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
+    }
+  }
+  // Objects left without particles (a floor of 0) take their mass with them: renormalise.
+  double total = 0.0;
+  for (const Particle& p : resampled) total += p.weight;
+  if (total > 0.0) {
+    for (Particle& p : resampled) p.weight /= total;
+  } else {
+    for (Particle& p : resampled) p.weight = 1.0 / static_cast<double>(resampled.size());
+  }
+  particles_ = std::move(resampled);
+}
+
+void ParticleFilter::CutHistory(int64_t oldest_kept_frame) {
+  std::unordered_set<const HistoryNode*> visited;
+  auto cut = [&](const HistoryNode* node) {
+    while (node != nullptr && visited.insert(node).second) {
+      if (node->state_.frame <= oldest_kept_frame) {
+        node->parent_.reset();
+        break;
+      }
+      node = node->parent_.get();
+    }
+  };
+  for (const Particle& p : particles_) cut(p.history.get());
+  cut(best_history_.get());
+}
+
+std::vector<PoseState> ParticleFilter::History(const Particle& particle) {
+  std::vector<PoseState> states;
+  for (const HistoryNode* node = particle.history.get(); node != nullptr; node = node->parent()) {
+    states.push_back(node->state());
+  }
+  std::reverse(states.begin(), states.end());
+  return states;
+}
+
+std::vector<PoseState> ParticleFilter::BestHistory() const {
+  Particle holder;
+  holder.history = best_history_;
+  return History(holder);
+}
+
+int64_t ParticleFilter::CountLiveHistoryNodes() const {
+  std::unordered_set<const HistoryNode*> visited;
+  auto walk = [&](const HistoryNode* node) {
+    while (node != nullptr && visited.insert(node).second) node = node->parent();
+  };
+  for (const Particle& p : particles_) walk(p.history.get());
+  walk(best_history_.get());
+  return static_cast<int64_t>(visited.size());
+}
+
+double EffectiveSampleSize(std::span<const double> normalised_weights) {
+  double sum_squares = 0.0;
+  for (double w : normalised_weights) sum_squares += w * w;
+  return sum_squares > 0.0 ? 1.0 / sum_squares : 0.0;
+}
+
+std::vector<int> SystematicResampleCounts(std::span<const double> weights, int count, double u) {
+  if (count < 0) ThrowError("resampling count must be >= 0, got ", count);
+  if (!(u >= 0.0 && u < 1.0)) ThrowError("resampling offset must be in [0, 1), got ", u);
+  std::vector<int> counts(weights.size(), 0);
+  double total = 0.0;
+  for (double w : weights) {
+    if (!(w >= 0.0) || !std::isfinite(w)) ThrowError("resampling weight ", w, " is not >= 0");
+    total += w;
+  }
+  if (count == 0) return counts;
+  if (!(total > 0.0)) ThrowError("resampling weights sum to ", total);
+  // Comb positions (u + j) / count of the cumulative normalised weights.
+  int drawn = 0;
+  double cumulative = 0.0;
+  size_t last_positive = 0;
+  for (size_t i = 0; i < weights.size() && drawn < count; ++i) {
+    if (weights[i] > 0.0) last_positive = i;
+    cumulative += weights[i] / total;
+    while (drawn < count && (u + drawn) / count < cumulative) {
+      ++counts[i];
+      ++drawn;
+    }
+  }
+  // Rounding can leave the last tooth past a cumulative sum of 1 - tiny.
+  for (size_t i = last_positive; i < weights.size(); ++i) {
+    if (weights[i] > 0.0) last_positive = i;
+  }
+  counts[last_positive] += count - drawn;
+  return counts;
+}
+
+double StandardNormalQuantile(double p) {
+  if (!(p > 0.0 && p < 1.0)) ThrowError("normal quantile needs p in (0, 1), got ", p);
+  // Bisection on the CDF 0.5 erfc(-z / sqrt 2): exact to double precision, and called rarely.
+  double lo = -40.0;
+  double hi = 40.0;
+  for (int iteration = 0; iteration < 200 && hi - lo > 1e-14; ++iteration) {
+    const double mid = 0.5 * (lo + hi);
+    if (0.5 * std::erfc(-mid / std::numbers::sqrt2) < p) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+int KldParticleCount(int bins, double epsilon, double delta) {
+  if (!(epsilon > 0.0)) ThrowError("KLD epsilon must be > 0, got ", epsilon);
+  if (bins <= 1) return 0;
+  const double z = StandardNormalQuantile(1.0 - delta);
+  const double k = bins - 1;
+  const double a = 2.0 / (9.0 * k);
+  const double cube = std::pow(1.0 - a + std::sqrt(a) * z, 3.0);
+  const double count = std::ceil(k / (2.0 * epsilon) * cube);
+  return count >= static_cast<double>(INT_MAX) ? INT_MAX : static_cast<int>(count);
+}
+
+}  // namespace silpose
