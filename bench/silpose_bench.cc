@@ -18,30 +18,13 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "bench_models.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 
 namespace silpose {
 namespace {
-
-std::vector<std::filesystem::path> BenchModels() {
-  std::vector<std::filesystem::path> directories;
-  if (const char* env = std::getenv("SILPOSE_BENCH_MODELS")) directories.emplace_back(env);
-  directories.emplace_back(SILPOSE_SHARED_MODELS_DIR);
-  directories.emplace_back(SILPOSE_SAMPLE_MODELS_DIR);
-  for (const auto& directory : directories) {
-    std::error_code error;
-    if (!std::filesystem::is_directory(directory, error)) continue;
-    std::vector<std::filesystem::path> files;
-    for (const auto& entry : std::filesystem::directory_iterator(directory)) {
-      if (entry.path().extension() == ".obj") files.push_back(entry.path());
-    }
-    std::sort(files.begin(), files.end());
-    if (!files.empty()) return files;
-  }
-  return {};
-}
 
 // The database of all benchmark models at the default parameters, built once.
 const ViewDatabase& BenchDatabase() {

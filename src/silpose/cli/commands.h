@@ -20,6 +20,10 @@ void AddEvalCommand(CLI::App& app);
 /// The project's sample models: `override_dir` if given, else the source tree's data/models, else
 /// the installed share/silpose/models. Throws silpose::Error if none is found.
 std::vector<std::filesystem::path> SampleModels(const std::string& override_dir = "");
+/// The regular files in a folder whose extension (any case) is one of `extensions` (".png", ...),
+/// sorted by name. Throws silpose::Error naming the folder if it cannot be listed.
+std::vector<std::filesystem::path> FilesWithExtensions(const std::filesystem::path& directory,
+                                                       const std::vector<std::string>& extensions);
 /// All mesh files (by extension) in a folder, sorted by name.
 std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& directory);
 /// Parses "X,Y,Z" into three finite numbers; throws silpose::Error naming `what` otherwise.

@@ -8,9 +8,8 @@
 
 namespace silpose::cli {
 
-std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& directory) {
-  static const std::vector<std::string> kExtensions = {".obj", ".ply",  ".stl",
-                                                       ".off", ".gltf", ".glb"};
+std::vector<std::filesystem::path> FilesWithExtensions(const std::filesystem::path& directory,
+                                                       const std::vector<std::string>& extensions) {
   std::vector<std::filesystem::path> files;
   std::error_code error;
   for (const auto& entry : std::filesystem::directory_iterator(directory, error)) {
@@ -18,13 +17,17 @@ std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& dire
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (entry.is_regular_file() &&
-        std::find(kExtensions.begin(), kExtensions.end(), extension) != kExtensions.end()) {
+        std::find(extensions.begin(), extensions.end(), extension) != extensions.end()) {
       files.push_back(entry.path());
     }
   }
   if (error) ThrowError(directory.string(), ": cannot list folder: ", error.message());
   std::sort(files.begin(), files.end());
   return files;
+}
+
+std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& directory) {
+  return FilesWithExtensions(directory, {".obj", ".ply", ".stl", ".off", ".gltf", ".glb"});
 }
 
 std::vector<std::filesystem::path> SampleModels(const std::string& override_dir) {

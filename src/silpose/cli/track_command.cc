@@ -25,22 +25,8 @@ struct TrackArguments {
 };
 
 std::vector<std::filesystem::path> ImagesIn(const std::filesystem::path& directory) {
-  static const std::vector<std::string> kExtensions = {".png",  ".pgm", ".pbm",  ".bmp", ".tif",
-                                                       ".tiff", ".jpg", ".jpeg", ".webp"};
-  std::vector<std::filesystem::path> files;
-  std::error_code error;
-  for (const auto& entry : std::filesystem::directory_iterator(directory, error)) {
-    std::string extension = entry.path().extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (entry.is_regular_file() &&
-        std::find(kExtensions.begin(), kExtensions.end(), extension) != kExtensions.end()) {
-      files.push_back(entry.path());
-    }
-  }
-  if (error) ThrowError(directory.string(), ": cannot list folder: ", error.message());
-  std::sort(files.begin(), files.end());
-  return files;
+  return FilesWithExtensions(
+      directory, {".png", ".pgm", ".pbm", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".webp"});
 }
 
 // The frames of INPUT: a folder of images in name order (a synth folder's masks/ is used when
