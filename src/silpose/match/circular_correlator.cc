@@ -183,8 +183,8 @@ CorrelationPeak CircularCorrelator::FullPeak(const SignatureSpectrum& query,
   return {std::min(peak, 1.0f), shift};
 }
 
-CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& query,
-                                                    const SignatureSpectrum& reference) {
+void CircularCorrelator::CoarseCorrelate(const SignatureSpectrum& query,
+                                         const SignatureSpectrum& reference) {
   const size_t harmonics = bound_length_;
   SILPOSE_ASSERT(query.coefficients.size() > harmonics &&
                  reference.coefficients.size() > harmonics);
@@ -193,6 +193,11 @@ CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& que
   }
   // The correlation at L evenly spaced shifts (s = j M / L), all of it for a band-limited signal.
   coarse_fft_->Inverse(coarse_products_.data(), coarse_samples_.data());
+}
+
+CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& query,
+                                                    const SignatureSpectrum& reference) {
+  CoarseCorrelate(query, reference);
   const int coarse = coarse_fft_->length();
   int best = 0;
   for (int j = 1; j < coarse; ++j) {
@@ -211,23 +216,13 @@ CorrelationPeak CircularCorrelator::BandLimitedPeak(const SignatureSpectrum& que
   // A Newton step on e(s) = sum_k w_k Re(P_k exp(i w k s)), w = 2 pi / M, with its exact
   // derivatives.
   const double omega = 2.0 * std::numbers::pi / length_;
+  const std::span<const std::complex<float>> products(coarse_products_.data(), bound_length_);
   double score = peak;
   for (int iteration = 0; iteration < 2; ++iteration) {
-    const std::complex<double> rotation = std::polar(1.0, omega * shift);
-    std::complex<double> phase(1.0, 0.0);
-    double value = 0.0, slope = 0.0, bend = 0.0;
-    for (size_t k = 0; k < harmonics; ++k) {
-      const std::complex<double> term = std::complex<double>(coarse_products_[k]) * phase;
-      const double weight = k == 0 ? 1.0 : 2.0;
-      const double frequency = omega * static_cast<double>(k);
-      value += weight * term.real();
-      slope -= weight * frequency * term.imag();
-      bend -= weight * frequency * frequency * term.real();
-      phase *= rotation;
-    }
-    score = value;
-    if (iteration == 1 || !(bend < 0.0)) break;
-    shift -= std::clamp(slope / bend, -step, step);
+    const BandLimitedValue e = EvaluateBandLimited(products, omega, shift);
+    score = e.value;
+    if (iteration == 1 || !(e.bend < 0.0)) break;
+    shift -= std::clamp(e.slope / e.bend, -step, step);
   }
   if (score < peak) {  // the step went downhill (two lobes close together): keep the sample
     score = peak;
@@ -254,12 +249,7 @@ void CircularCorrelator::LocalPeaks(const SignatureSpectrum& query,
   const float* samples = nullptr;
   int64_t count = 0;
   if (band_limited) {
-    SILPOSE_ASSERT(query.coefficients.size() > harmonics &&
-                   reference.coefficients.size() > harmonics);
-    for (size_t k = 0; k < harmonics; ++k) {
-      coarse_products_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
-    }
-    coarse_fft_->Inverse(coarse_products_.data(), coarse_samples_.data());
+    CoarseCorrelate(query, reference);
     samples = coarse_samples_.data();
     count = coarse_fft_->length();
   } else {

@@ -103,6 +103,9 @@ class CircularCorrelator {
                                              std::span<const float> reference);
 
  private:
+  /// Band-limited products conj(Q_k) D_k into coarse_products_ and the correlation at the
+  /// coarse_fft_ length's evenly spaced shifts into coarse_samples_.
+  void CoarseCorrelate(const SignatureSpectrum& query, const SignatureSpectrum& reference);
   CorrelationPeak FullPeak(const SignatureSpectrum& query, const SignatureSpectrum& reference);
   CorrelationPeak BandLimitedPeak(const SignatureSpectrum& query,
                                   const SignatureSpectrum& reference);
