@@ -12,47 +12,11 @@
 #include <sstream>
 #include <string>
 
+#include "cli_runner.h"
 #include "silpose/database/view_database.h"
 
 namespace silpose {
 namespace {
-
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-// Runs `silpose <arguments>` through the shell, capturing stdout and stderr.
-CommandResult Silpose(const std::string& arguments) {
-  static int counter = 0;
-  const auto err_path =
-      std::filesystem::temp_directory_path() /
-      ("silpose_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-  const std::string command =
-      std::string(SILPOSE_BINARY) + " " + arguments + " 2>" + err_path.string() + " </dev/null";
-  CommandResult run;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buffer{};
-  size_t n;
-  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
-    run.out.append(buffer.data(), n);
-  const int status = ::pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  std::ifstream err(err_path);
-  std::stringstream text;
-  text << err.rdbuf();
-  run.err = text.str();
-  std::filesystem::remove(err_path);
-  return run;
-}
-
-int Lines(const std::string& text) {
-  int lines = 0;
-  for (char c : text) lines += c == '\n';
-  return lines;
-}
 
 class CliTest : public ::testing::Test {
  protected:
