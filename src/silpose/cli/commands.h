@@ -16,6 +16,7 @@ void AddSynthCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
 void AddDemoCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
+void AddCalibrateCommand(CLI::App& app);
 
 /// The project's sample models: `override_dir` if given, else the source tree's data/models, else
 /// the installed share/silpose/models. Throws silpose::Error if none is found.

@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   silpose::cli::AddTrackCommand(app);
   silpose::cli::AddDemoCommand(app);
   silpose::cli::AddEvalCommand(app);
+  silpose::cli::AddCalibrateCommand(app);
 
   if (argc > 1 && argv[1][0] != '-') {
     bool known = false;

@@ -1,0 +1,125 @@
+#pragma once
+// Per-frame results and the files they go to (DESIGN.md, "File contracts"):
+//  - PosesCsvWriter: POSES.csv, one row per frame, header
+//      frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,
+//      effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz
+//    with empty cells where a value is unknown (no object, no probability, no pose, ...);
+//  - JsonLinesWriter: one JSON object per frame and line, the same information (unknowns null);
+//  - BopCsvWriter: the BOP19 results format `scene_id,im_id,obj_id,score,R,t,time`, one row per
+//    frame with a pose: R row-major as 9 space-separated numbers, t in millimetres as 3, time in
+//    seconds (-1 if unknown).
+// Poses are object_to_camera (x_cam = R x_obj + t, OpenCV camera frame, t in model units). Every
+// writer flushes each row to the file as it is written (a crash later loses nothing), throws
+// silpose::Error naming the file when it cannot be opened or a write fails, and checks the final
+// close in Close() (the destructor closes without checking).
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "silpose/geometry/rigid3.h"
+
+namespace silpose {
+
+/// What was found in one frame. NaN / empty / -1 mean "unknown" and give empty cells (CSV) or null
+/// (JSON).
+struct FrameResult {
+  /// Frame number, from 0 in input order (POSES.csv `frame`, BOP `im_id`).
+  int frame = 0;
+  /// The frame's file name or other label (JSON only); empty = unknown.
+  std::string frame_name;
+  /// Whether the frame had a usable silhouette and how it was used ("measured",
+  /// "predicted-no-silhouette-empty", ...); free text without commas or line breaks.
+  std::string status;
+  /// Index of the object in the database, -1 = none; its name (the mesh file's stem).
+  int object = -1;
+  std::string object_name;
+  /// Correlation score of the estimate, [-1, 1].
+  double score = std::numeric_limits<double>::quiet_NaN();
+  /// Probability of the object (particle filter).
+  double probability = std::numeric_limits<double>::quiet_NaN();
+  /// Unit view direction (object centre -> camera), model frame.
+  std::optional<Eigen::Vector3d> view_dir_in_object;
+  /// Camera roll, degrees (geometry/view_frame.h).
+  double roll_deg = std::numeric_limits<double>::quiet_NaN();
+  /// Processing time of the frame, milliseconds.
+  double time_ms = std::numeric_limits<double>::quiet_NaN();
+  /// Particles used and their effective number; 0 / NaN without a particle filter.
+  int particles = 0;
+  double effective_particles = std::numeric_limits<double>::quiet_NaN();
+  /// 6-DOF pose (object_to_camera), if estimated.
+  std::optional<Rigid3> camera_from_object;
+};
+
+/// The POSES.csv header line (without the newline).
+const char* PosesCsvHeader();
+
+/// Writes POSES.csv (see above). Object names are quoted if they contain a comma, a quote or a
+/// line break (RFC 4180).
+class PosesCsvWriter {
+ public:
+  /// Creates (truncates) the file and writes the header. Throws silpose::Error naming the file.
+  explicit PosesCsvWriter(const std::filesystem::path& path);
+  /// Writes and flushes one row. Throws silpose::Error naming the file if the write fails.
+  void Write(const FrameResult& result);
+  /// Closes the file; throws silpose::Error naming it if closing fails. Writing after it throws.
+  void Close();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  std::ofstream stream_;
+};
+
+/// Writes JSON Lines: per frame one object {"frame", "frame_name", "status", "object",
+/// "object_index", "score", "probability", "view_dir" [x, y, z], "roll_deg", "time_ms",
+/// "particles", "effective_particles", "pose" {"R": 3 rows of 3, "t": [x, y, z]}}, unknowns null.
+class JsonLinesWriter {
+ public:
+  explicit JsonLinesWriter(const std::filesystem::path& path);
+  void Write(const FrameResult& result);
+  void Close();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  std::ofstream stream_;
+};
+
+struct BopOutputOptions {
+  /// BOP scene_id written on every row (>= 0).
+  int scene_id = 1;
+  /// BOP obj_id of database model i: object_ids[i]; empty = i + 1.
+  std::vector<int> object_ids;
+  /// Size of one model unit in millimetres (t_mm = t * model_unit_mm), > 0: 1 for meshes in mm,
+  /// 1000 for meshes in metres.
+  double model_unit_mm = 1.0;
+
+  bool Check(std::string* error = nullptr) const;
+};
+
+/// Writes a BOP19 results CSV (see above): header `scene_id,im_id,obj_id,score,R,t,time`, then one
+/// row per frame with an object and a pose (others are skipped); im_id = frame, score = the
+/// result's score (0 if unknown), time = time_ms / 1000 (-1 if unknown).
+class BopCsvWriter {
+ public:
+  /// Throws silpose::Error naming the file, or for invalid options.
+  BopCsvWriter(const std::filesystem::path& path, const BopOutputOptions& options = {});
+  /// Writes and flushes the row of a frame with a pose; returns false (writing nothing) for a
+  /// frame without object or pose. Throws silpose::Error naming the file if the write fails, or if
+  /// the object index has no entry in options.object_ids.
+  bool Write(const FrameResult& result);
+  void Close();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  BopOutputOptions options_;
+  std::ofstream stream_;
+};
+
+}  // namespace silpose

@@ -1,0 +1,120 @@
+#include "silpose/track/tracker.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+
+ParticleFilterOptions TrackerOptions::DefaultFilterOptions() {
+  ParticleFilterOptions options;
+  options.max_history_frames = 100;
+  return options;
+}
+
+bool TrackerOptions::Check(std::string* error) const {
+  std::string problem;
+  if (!segmentation.Check(&problem)) {
+    if (error != nullptr) *error = "segmentation: " + problem;
+    return false;
+  }
+  if (!brute_force && !filter.Check(&problem)) {
+    if (error != nullptr) *error = "particle filter: " + problem;
+    return false;
+  }
+  if (estimate_pose && !pose.Check(&problem)) {
+    if (error != nullptr) *error = "pose: " + problem;
+    return false;
+  }
+  return true;
+}
+
+Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
+                 const TrackerOptions& options)
+    : database_(database), camera_(camera), options_(options) {
+  std::string problem;
+  if (!options_.Check(&problem)) ThrowError("tracker options: ", problem);
+  if (!camera_.Check(&problem)) ThrowError("camera: ", problem);
+  if (database_.models.empty()) ThrowError("tracker: the database has no models");
+  spectra_ = std::make_unique<ViewSpectra>(database_);
+  segmenter_ = CreateSegmenter(options_.segmentation);
+  if (options_.brute_force) {
+    matcher_ = std::make_unique<ViewMatcher>(*spectra_);
+  } else {
+    filter_ = std::make_unique<ParticleFilter>(database_.sphere, *spectra_, options_.filter);
+  }
+}
+
+Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
+    : Tracker(database, camera, TrackerOptions()) {}
+
+Tracker::~Tracker() = default;
+
+TrackedFrame Tracker::Process(const cv::Mat& frame) {
+  if (frame.empty()) ThrowError("frame ", frame_, " is empty");
+  if (frame.cols != camera_.width_px || frame.rows != camera_.height_px) {
+    ThrowError("frame ", frame_, " is ", frame.cols, "x", frame.rows, " pixels but the camera is ",
+               camera_.width_px, "x", camera_.height_px,
+               " (give the camera file of this video, or none for a default)");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  TrackedFrame tracked;
+  FrameResult& result = tracked.result;
+  result.frame = frame_;
+  tracked.segmentation = segmenter_->Segment(frame);
+  bool usable = false;
+  if (tracked.segmentation.ok()) {
+    tracked.silhouette =
+        ExtractSignature(tracked.segmentation.mask, database_.parameters.signature);
+    usable = tracked.silhouette.ok();
+    result.status =
+        usable ? "measured" : std::string("no-silhouette-") + ToString(tracked.silhouette.status);
+  } else {
+    result.status = std::string("no-silhouette-") + ToString(tracked.segmentation.status);
+  }
+
+  int view = -1;
+  bool roll_known = false;
+  if (filter_) {
+    const FilterEstimate estimate =
+        usable ? filter_->Step(tracked.silhouette.signature.radii) : filter_->Predict();
+    if (!estimate.measured) result.status = "predicted-" + result.status;
+    result.object = estimate.object;
+    view = estimate.view;
+    roll_known = estimate.roll_known;
+    if (roll_known) result.roll_deg = estimate.roll_deg;
+    result.score = static_cast<double>(estimate.score);
+    if (estimate.object >= 0)
+      result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
+    result.particles = estimate.num_particles;
+    result.effective_particles = estimate.effective_particles;
+    tracked.estimate = estimate;
+  } else if (usable) {
+    const std::vector<MatchCandidate> top =
+        matcher_->Match(tracked.silhouette.signature.radii, {.top_k = 1});
+    if (!top.empty()) {
+      result.object = top.front().model;
+      view = top.front().view;
+      roll_known = true;
+      result.roll_deg = top.front().roll_deg;
+      result.score = static_cast<double>(top.front().score);
+    }
+  }
+  if (result.object >= 0 && view >= 0) {
+    result.object_name = database_.models[static_cast<size_t>(result.object)].name;
+    result.view_dir_in_object = database_.sphere.directions[static_cast<size_t>(view)];
+    if (options_.estimate_pose && usable && roll_known) {
+      tracked.pose =
+          EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
+                                     tracked.silhouette.signature, camera_, options_.pose);
+      result.camera_from_object = tracked.pose->camera_from_object;
+    }
+  }
+  result.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  ++frame_;
+  return tracked;
+}
+
+}  // namespace silpose

@@ -1,0 +1,101 @@
+#pragma once
+// The online pipeline of one video stream (DESIGN.md, "online"): frame -> segmentation ->
+// polar signature -> particle filter over (object, view, roll) (or the brute-force matcher) ->
+// 6-DOF pose. This is what `silpose track` runs per frame; call it from your own code the same way:
+//
+//   const ViewDatabase database = ViewDatabase::Read("objects.db");
+//   Tracker tracker(database, ReadCameraFile("camera.yml"), TrackerOptions{});
+//   for (cv::Mat frame; source->Read(&frame);) {
+//     const TrackedFrame tracked = tracker.Process(frame);
+//     // tracked.result: object, score, probability, view, roll, pose (pose/pose_output.h)
+//   }
+//
+// A frame whose segmentation fails (still learning the background, nothing found, the whole frame
+// changed) or whose silhouette cannot be described (too small, ...) is not an error: the filter
+// only predicts, the result's status says why, and there is no pose for it.
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "silpose/database/view_database.h"
+#include "silpose/filter/particle_filter.h"
+#include "silpose/geometry/pinhole_camera.h"
+#include "silpose/match/view_matcher.h"
+#include "silpose/pose/pose_from_silhouette.h"
+#include "silpose/pose/pose_output.h"
+#include "silpose/segment/segmenter.h"
+#include "silpose/shape/polar_signature.h"
+
+namespace silpose {
+
+struct TrackerOptions {
+  /// How frames become masks (segment/segmenter.h). Default: the frames are masks.
+  SegmenterOptions segmentation;
+  /// Match every frame against the whole database independently (the paper's baseline) instead
+  /// of filtering.
+  bool brute_force = false;
+  /// The particle filter (filter/particle_filter.h). Tracker keeps at most
+  /// filter.max_history_frames of history; the default here, 100, bounds memory on long videos.
+  ParticleFilterOptions filter = DefaultFilterOptions();
+  /// Estimate the 6-DOF pose of every frame with a silhouette.
+  bool estimate_pose = true;
+  PoseFromSilhouetteOptions pose;
+
+  /// ParticleFilterOptions{} with max_history_frames = 100.
+  static ParticleFilterOptions DefaultFilterOptions();
+  /// False with a message naming the option if any part is invalid.
+  bool Check(std::string* error = nullptr) const;
+};
+
+/// Everything the tracker found in one frame.
+struct TrackedFrame {
+  /// The row of POSES.csv / JSON Lines / BOP (pose/pose_output.h). result.time_ms is the
+  /// processing time of Process() (segmentation to pose; decoding not included).
+  FrameResult result;
+  /// The segmentation (its mask is all zero unless ok()).
+  SegmentationResult segmentation;
+  /// The silhouette description (valid when segmentation.ok()).
+  SignatureResult silhouette;
+  /// The pose and how it was found, when estimated.
+  std::optional<SilhouettePose> pose;
+  /// The particle filter's estimate (not set in brute-force mode).
+  std::optional<FilterEstimate> estimate;
+};
+
+class Tracker {
+ public:
+  /// `database` must outlive the tracker. `camera` is the camera of the frames (its size must be
+  /// the frames' size). Throws silpose::Error for invalid options or camera, or a database
+  /// without any usable view.
+  Tracker(const ViewDatabase& database, const PinholeCamera& camera,
+          const TrackerOptions& options);
+  /// With default options.
+  Tracker(const ViewDatabase& database, const PinholeCamera& camera);
+  ~Tracker();
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  /// Processes the next frame of the stream (CV_8UC1 mask or grey image, or CV_8UC3 BGR; see
+  /// segment/segmenter.h). Throws silpose::Error if the frame is empty, of an unsupported type, or
+  /// not of the camera's size.
+  TrackedFrame Process(const cv::Mat& frame);
+
+  /// Frames processed so far.
+  int num_frames() const { return frame_; }
+  const ViewDatabase& database() const { return database_; }
+  const PinholeCamera& camera() const { return camera_; }
+  const TrackerOptions& options() const { return options_; }
+
+ private:
+  const ViewDatabase& database_;
+  PinholeCamera camera_;
+  TrackerOptions options_;
+  std::unique_ptr<ViewSpectra> spectra_;
+  std::unique_ptr<Segmenter> segmenter_;
+  std::unique_ptr<ParticleFilter> filter_;
+  std::unique_ptr<ViewMatcher> matcher_;
+  int frame_ = 0;
+};
+
+}  // namespace silpose

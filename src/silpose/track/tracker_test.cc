@@ -1,0 +1,150 @@
+#include "silpose/track/tracker.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "silpose/database/database_builder.h"
+#include "silpose/pose/pose_error.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+const std::filesystem::path kModels(SILPOSE_SAMPLE_MODELS_DIR);
+
+// Two sample models, 400 views: small enough to build in a second.
+const ViewDatabase& Database() {
+  static const ViewDatabase* database = [] {
+    DatabaseBuildOptions options;
+    options.parameters.view_sphere.num_views = 400;
+    options.parameters.render.resolution_px = 192;
+    return new ViewDatabase(
+        BuildViewDatabase({kModels / "cow.obj", kModels / "hand.obj"}, options));
+  }();
+  return *database;
+}
+
+// A 80-frame random walk over the cow, then the hand from frame 40 on.
+const SyntheticSequence& Sequence() {
+  static const SyntheticSequence* sequence = [] {
+    SequenceOptions options;
+    options.trajectory.kind = TrajectoryKind::kWalk;
+    options.trajectory.num_frames = 80;
+    options.trajectory.walk.seed = 7;
+    options.trajectory.object_switches = {{0, 0}, {40, 1}};
+    return new SyntheticSequence({LoadMesh(kModels / "cow.obj"), LoadMesh(kModels / "hand.obj")},
+                                 options);
+  }();
+  return *sequence;
+}
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+double SpacingDeg() { return Database().sphere.typical_spacing_rad * 180.0 / std::numbers::pi; }
+
+struct RunSummary {
+  std::vector<std::string> objects;
+  std::vector<double> rotation_errors_deg;
+  std::vector<double> translation_errors;  // relative to the true distance
+};
+
+RunSummary TrackSequence(const TrackerOptions& options) {
+  Tracker tracker(Database(), Sequence().camera(), options);
+  RunSummary summary;
+  for (int f = 0; f < Sequence().num_frames(); ++f) {
+    const SyntheticFrame frame = Sequence().Generate(f);
+    const TrackedFrame tracked = tracker.Process(frame.mask);
+    EXPECT_EQ(tracked.result.frame, f);
+    EXPECT_EQ(tracked.result.status, "measured") << "frame " << f;
+    summary.objects.push_back(tracked.result.object_name);
+    // Settled frames only: 10 frames after the start and after the switch.
+    const bool settled = (f >= 10 && f < 40) || f >= 50;
+    if (settled && tracked.result.object_name == frame.truth.object) {
+      EXPECT_TRUE(tracked.result.camera_from_object.has_value()) << "frame " << f;
+      if (!tracked.result.camera_from_object) continue;
+      const Rigid3& estimated = *tracked.result.camera_from_object;
+      const Rigid3& truth = frame.truth.camera_from_object;
+      summary.rotation_errors_deg.push_back(RotationErrorDeg(estimated.rotation, truth.rotation));
+      summary.translation_errors.push_back((estimated.translation - truth.translation).norm() /
+                                           truth.translation.norm());
+    }
+  }
+  return summary;
+}
+
+TEST(Tracker, IdentifiesTheObjectAndItsPoseAcrossASwitch) {
+  TrackerOptions options;
+  options.filter.seed = 3;
+  const RunSummary run = TrackSequence(options);
+  int right = 0, settled = 0;
+  for (int f = 0; f < Sequence().num_frames(); ++f) {
+    if ((f >= 10 && f < 40) || f >= 50) {
+      ++settled;
+      right += run.objects[static_cast<size_t>(f)] == Sequence().Truth(f).object;
+    }
+  }
+  // Right object in every settled frame but at most 2 (the filter needs a few frames to switch).
+  EXPECT_GE(right, settled - 2);
+  ASSERT_GE(run.rotation_errors_deg.size(), 40u);
+  // Rotation: within the view grid spacing plus a few degrees (roll, view between grid points);
+  // translation: a few percent of the distance (scale from the silhouette).
+  EXPECT_LT(Median(run.rotation_errors_deg), SpacingDeg() + 4.0);
+  EXPECT_LT(Median(run.translation_errors), 0.05);
+}
+
+TEST(Tracker, SameSeedSameResults) {
+  TrackerOptions options;
+  options.filter.seed = 11;
+  EXPECT_EQ(TrackSequence(options).objects, TrackSequence(options).objects);
+}
+
+TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
+  TrackerOptions options;
+  options.brute_force = true;
+  Tracker tracker(Database(), Sequence().camera(), options);
+  const TrackedFrame tracked = tracker.Process(Sequence().Generate(20).mask);
+  EXPECT_EQ(tracked.result.object_name, "cow");
+  EXPECT_TRUE(std::isnan(tracked.result.probability));
+  EXPECT_EQ(tracked.result.particles, 0);
+  EXPECT_FALSE(tracked.estimate.has_value());
+  EXPECT_TRUE(tracked.result.camera_from_object.has_value());
+}
+
+TEST(Tracker, FrameWithoutSilhouetteIsAPredictionWithoutPose) {
+  Tracker tracker(Database(), Sequence().camera());
+  tracker.Process(Sequence().Generate(0).mask);
+  const cv::Mat blank = cv::Mat::zeros(Sequence().Generate(1).mask.size(), CV_8UC1);
+  const TrackedFrame tracked = tracker.Process(blank);
+  EXPECT_EQ(tracked.result.status, "predicted-no-silhouette-empty");
+  EXPECT_FALSE(tracked.result.camera_from_object.has_value());
+  ASSERT_TRUE(tracked.estimate.has_value());
+  EXPECT_FALSE(tracked.estimate->measured);
+  EXPECT_GE(tracked.result.object, 0);  // the filter still has an estimate
+  EXPECT_EQ(tracker.num_frames(), 2);
+}
+
+TEST(Tracker, RefusesFramesOfAnotherSize) {
+  Tracker tracker(Database(), Sequence().camera());
+  const cv::Mat small = cv::Mat::zeros(100, 100, CV_8UC1);
+  EXPECT_THROW(tracker.Process(small), Error);
+  EXPECT_THROW(tracker.Process(cv::Mat()), Error);
+}
+
+TEST(Tracker, RefusesInvalidOptions) {
+  TrackerOptions options;
+  options.filter.particles_per_object = 0;
+  EXPECT_THROW(Tracker(Database(), Sequence().camera(), options), Error);
+  PinholeCamera camera = Sequence().camera();
+  camera.focal_x_px = -1.0;
+  EXPECT_THROW(Tracker(Database(), camera), Error);
+}
+
+}  // namespace
+}  // namespace silpose
