@@ -7,6 +7,7 @@
 
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
+#include "silpose/synth/colour_frames.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
 
@@ -31,11 +32,17 @@ struct SynthArguments {
   int threads = 0;
   bool overwrite = false;
   DegradationOptions degradation;
+  bool colour = false;
+  std::string background;
+  double camera_noise = 0.0;
+  double flicker = 0.0;
+  std::vector<double> object_colours;  // B,G,R per model, or one B,G,R for all
   // Options given on the command line (CLI11 counts), to refuse those that do not apply.
   CLI::Option* tilt_option = nullptr;
   CLI::Option* distance_option = nullptr;
   CLI::Option* range_option = nullptr;
   CLI::Option* roll_speed_option = nullptr;
+  std::vector<CLI::Option*> colour_options;  // need --colour
 };
 
 void RefuseFor(const CLI::Option* option, const char* trajectory) {
@@ -113,6 +120,51 @@ TrajectoryOptions MakeTrajectory(const SynthArguments& arguments, int num_models
   return trajectory;
 }
 
+ColourOptions MakeColour(const SynthArguments& arguments, int num_models) {
+  if (!arguments.colour) {
+    for (const CLI::Option* option : arguments.colour_options) {
+      if (option->count() > 0) ThrowError(option->get_name(), " needs --colour");
+    }
+    return {};
+  }
+  ColourOptions colour;
+  colour.enabled = true;
+  colour.seed = arguments.seed;
+  colour.background_seed = arguments.seed;
+  colour.noise_sigma = arguments.camera_noise;
+  colour.flicker = arguments.flicker;
+  const std::vector<double>& values = arguments.object_colours;
+  if (!values.empty()) {
+    if (values.size() % 3 != 0 ||
+        (values.size() != 3 && values.size() != 3 * static_cast<size_t>(num_models))) {
+      ThrowError("--object-colour needs B,G,R (all models) or one B,G,R per model (",
+                 3 * num_models, " numbers), got ", values.size(), " numbers");
+    }
+    for (size_t i = 0; i < values.size(); i += 3) {
+      colour.object_colours_bgr.emplace_back(values[i], values[i + 1], values[i + 2]);
+    }
+  }
+  std::string problem;
+  if (!colour.Check(&problem)) {
+    ThrowError("invalid colour frames (--camera-noise, --flicker, --object-colour): ", problem);
+  }
+  if (!arguments.background.empty()) {
+    colour.background_image = ReadBackgroundImage(arguments.background);
+  }
+  return colour;
+}
+
+// How the sequence is written. Its colour_frame_sink, when set, receives every colour frame in
+// frame order while the frames are generated (a video encoder goes there).
+SequenceWriteOptions MakeWriteOptions(const SynthArguments& arguments) {
+  SequenceWriteOptions write;
+  write.num_threads = arguments.threads;
+  write.show_progress = true;
+  write.overwrite = arguments.overwrite;
+  write.write_colour_frames = arguments.colour;
+  return write;
+}
+
 void RunSynth(const SynthArguments& arguments) {
   SequenceOptions options;
   options.trajectory = MakeTrajectory(arguments, static_cast<int>(arguments.models.size()));
@@ -124,6 +176,7 @@ void RunSynth(const SynthArguments& arguments) {
   }
   if (arguments.threads < 0) ThrowError("--threads must be >= 0 (0 = all cores)");
   if (!arguments.camera.empty()) options.camera = ReadCameraFile(arguments.camera);
+  options.colour = MakeColour(arguments, static_cast<int>(arguments.models.size()));
 
   std::vector<TriangleMesh> meshes;
   for (const std::string& model : arguments.models) {
@@ -136,9 +189,8 @@ void RunSynth(const SynthArguments& arguments) {
     meshes.push_back(LoadMesh(model));
   }
   const SyntheticSequence sequence(std::move(meshes), options);
-  const SequenceSummary summary = WriteSequence(
-      sequence, arguments.output,
-      {.num_threads = arguments.threads, .show_progress = true, .overwrite = arguments.overwrite});
+  const SequenceSummary summary =
+      WriteSequence(sequence, arguments.output, MakeWriteOptions(arguments));
   std::printf("%s: %s trajectory, %s, %dx%d camera\n", summary.BriefReport().c_str(),
               TrajectoryKindName(options.trajectory.kind),
               sequence.meshes().size() == 1
@@ -165,7 +217,8 @@ void AddSynthCommand(CLI::App& app) {
       "synth",
       "Render a synthetic silhouette sequence with exact ground truth: masks/000000.png..., "
       "camera.yml and groundtruth.csv (frame, object, view, roll, 6-DOF pose, distance, "
-      "degradation). With several models the sequence shows them in turn.");
+      "degradation), and with --colour shaded colour frames/000000.png... With several models "
+      "the sequence shows them in turn.");
   command
       ->add_option("models", arguments->models,
                    "Mesh files; the first is shown first (see --switch-at, --switch-every)")
@@ -227,7 +280,8 @@ void AddSynthCommand(CLI::App& app) {
   DegradationOptions& degradation = arguments->degradation;
   command
       ->add_option("--noise", degradation.noise_fraction,
-                   "Salt-and-pepper noise: fraction of pixels flipped, 0..1")
+                   "Salt-and-pepper noise on the masks: fraction of pixels flipped, 0..1 (for "
+                   "noise on colour frames see --camera-noise)")
       ->capture_default_str();
   command
       ->add_option("--erode", degradation.erode_px,
@@ -262,7 +316,35 @@ void AddSynthCommand(CLI::App& app) {
                    "Probability that a frame is badly segmented (large occluder, heavy erosion "
                    "or merged blob), 0..1; recorded in groundtruth.csv")
       ->capture_default_str();
-  command->add_option("--seed", arguments->seed, "Seed of the walk and of the degradations")
+  command->add_flag(
+      "--colour", arguments->colour,
+      "Also render colour frames, frames/000000.png...: the object shaded (one colour "
+      "per model) in front of a static background, with optional camera noise and "
+      "flicker; for testing --segment bgsub / threshold. The masks stay as they are");
+  arguments->colour_options = {
+      command->add_option("--background", arguments->background,
+                          "Background image for the colour frames, scaled to cover the camera "
+                          "image and cropped at its centre (default: a generated wall-and-table "
+                          "texture, from --seed)"),
+      command
+          ->add_option("--camera-noise", arguments->camera_noise,
+                       "Gaussian noise on the colour frames: standard deviation in grey levels "
+                       "(every channel of every pixel, drawn anew in each frame)")
+          ->capture_default_str(),
+      command
+          ->add_option(
+              "--flicker", arguments->flicker,
+              "Brightness flicker of the colour frames: each frame is scaled by 1 + F * u, "
+              "u uniform in [-1, 1], 0..0.5")
+          ->capture_default_str(),
+      command
+          ->add_option("--object-colour", arguments->object_colours,
+                       "Colour of the models in the colour frames: B,G,R (0..255) for all, or "
+                       "B,G,R,B,G,R,... one per model (default: a distinct colour per model)")
+          ->delimiter(',')};
+  command
+      ->add_option("--seed", arguments->seed,
+                   "Seed of the walk, the degradations and the colour frames' texture and noise")
       ->capture_default_str();
   command->add_option("--threads", arguments->threads, "Worker threads (0 = all cores)")
       ->capture_default_str();

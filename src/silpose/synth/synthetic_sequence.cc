@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <sstream>
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/render/shaded_renderer.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
 #include "silpose/util/progress.h"
@@ -39,20 +41,29 @@ bool IsMaskFileName(const std::filesystem::path& path) {
   return true;
 }
 
-void PrepareFolder(const std::filesystem::path& folder, bool overwrite) {
+// The numbered images (<digits>.png) in `folder`, if it exists.
+std::vector<std::filesystem::path> NumberedImages(const std::filesystem::path& folder) {
+  std::vector<std::filesystem::path> images;
+  std::error_code error;
+  if (!std::filesystem::is_directory(folder, error)) return images;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+    if (IsMaskFileName(entry.path())) images.push_back(entry.path());
+  }
+  if (error) ThrowError(folder.string(), ": cannot list the folder: ", error.message());
+  return images;
+}
+
+void PrepareFolder(const std::filesystem::path& folder, bool overwrite, bool colour) {
   std::error_code error;
   std::filesystem::create_directories(folder / "masks", error);
   if (error) ThrowError(folder.string(), ": cannot create the folder: ", error.message());
-  std::vector<std::filesystem::path> old_masks;
-  for (const auto& entry : std::filesystem::directory_iterator(folder / "masks", error)) {
-    if (IsMaskFileName(entry.path())) old_masks.push_back(entry.path());
-  }
-  if (error) ThrowError((folder / "masks").string(), ": cannot list the folder: ", error.message());
+  const std::vector<std::filesystem::path> old_masks = NumberedImages(folder / "masks");
+  const std::vector<std::filesystem::path> old_frames = NumberedImages(folder / "frames");
   const bool has_truth = std::filesystem::exists(folder / "groundtruth.csv", error);
-  if ((has_truth || !old_masks.empty()) && !overwrite) {
+  if ((has_truth || !old_masks.empty() || !old_frames.empty()) && !overwrite) {
     ThrowError(folder.string(),
-               ": already holds a sequence (groundtruth.csv or masks/*.png); choose another "
-               "folder or allow overwriting (--overwrite)");
+               ": already holds a sequence (groundtruth.csv, masks/*.png or frames/*.png); "
+               "choose another folder or allow overwriting (--overwrite)");
   }
   // The old ground truth goes first: a folder with groundtruth.csv is always complete.
   if (has_truth) {
@@ -61,10 +72,28 @@ void PrepareFolder(const std::filesystem::path& folder, bool overwrite) {
       ThrowError((folder / "groundtruth.csv").string(), ": cannot remove: ", error.message());
     }
   }
-  for (const auto& path : old_masks) {
-    std::filesystem::remove(path, error);
-    if (error) ThrowError(path.string(), ": cannot remove the old mask: ", error.message());
+  for (const std::vector<std::filesystem::path>* old : {&old_masks, &old_frames}) {
+    for (const auto& path : *old) {
+      std::filesystem::remove(path, error);
+      if (error) ThrowError(path.string(), ": cannot remove the old image: ", error.message());
+    }
   }
+  if (colour) {
+    std::filesystem::create_directories(folder / "frames", error);
+    if (error) {
+      ThrowError((folder / "frames").string(), ": cannot create the folder: ", error.message());
+    }
+  }
+}
+
+void WriteColourFrame(const std::filesystem::path& path, const cv::Mat& image) {
+  bool written = false;
+  try {
+    written = cv::imwrite(path.string(), image);
+  } catch (const cv::Exception& exception) {
+    ThrowError(path.string(), ": cannot write the frame: ", exception.what());
+  }
+  if (!written) ThrowError(path.string(), ": cannot write the frame");
 }
 
 }  // namespace
@@ -78,7 +107,12 @@ bool SequenceOptions::Check(std::string* error) const {
     return false;
   }
   if (!trajectory.Check(error)) return false;
-  return degradation.Check(error);
+  if (!degradation.Check(error)) return false;
+  if (!colour.Check(&problem)) {
+    if (error != nullptr) *error = "colour frames: " + problem;
+    return false;
+  }
+  return true;
 }
 
 SyntheticSequence::SyntheticSequence(std::vector<TriangleMesh> meshes,
@@ -110,6 +144,25 @@ SyntheticSequence::SyntheticSequence(std::vector<TriangleMesh> meshes,
     }
   }
   trajectory_ = GenerateTrajectory(options_.trajectory);
+
+  const ColourOptions& colour = options_.colour;
+  const size_t num_colours = colour.object_colours_bgr.size();
+  if (num_colours > 1 && num_colours != meshes_.size()) {
+    ThrowError("give one object colour for all models or one per model: ", meshes_.size(),
+               " model(s), ", num_colours, " colours");
+  }
+  for (size_t i = 0; i < meshes_.size(); ++i) {
+    object_colours_.push_back(num_colours == 0   ? DefaultObjectColour(static_cast<int>(i))
+                              : num_colours == 1 ? colour.object_colours_bgr.front()
+                                                 : colour.object_colours_bgr[i]);
+  }
+  if (colour.enabled) {
+    const PinholeCamera& camera = options_.camera;
+    background_ =
+        colour.background_image.empty()
+            ? GenerateBackgroundTexture(camera.width_px, camera.height_px, colour.background_seed)
+            : FitBackground(colour.background_image, camera.width_px, camera.height_px);
+  }
 }
 
 GroundTruthFrame SyntheticSequence::Truth(int index) const {
@@ -131,8 +184,20 @@ GroundTruthFrame SyntheticSequence::Truth(int index) const {
 
 void SyntheticSequence::Generate(int index, SyntheticFrame* frame) const {
   frame->truth = Truth(index);
-  const TriangleMesh& mesh = meshes_[static_cast<size_t>(trajectory_[index].object)];
-  RenderSilhouette(mesh, options_.camera, frame->truth.camera_from_object, &frame->mask);
+  const auto object = static_cast<size_t>(trajectory_[static_cast<size_t>(index)].object);
+  const TriangleMesh& mesh = meshes_[object];
+  if (options_.colour.enabled) {
+    // The shaded renderer's mask is RenderSilhouette's (same pixel rule): one pass for both.
+    ShadedRenderOptions shading = options_.colour.shading;
+    shading.base_colour_bgr = object_colours_[object];
+    shading.background = background_;
+    RenderShaded(mesh, options_.camera, frame->truth.camera_from_object, shading, &frame->colour,
+                 &frame->mask);
+    ApplyCameraEffects(options_.colour, index, &frame->colour);
+  } else {
+    RenderSilhouette(mesh, options_.camera, frame->truth.camera_from_object, &frame->mask);
+    frame->colour.release();
+  }
   frame->rendered_area_px = cv::countNonZero(frame->mask);
   frame->touches_border = frame->rendered_area_px > 0 && TouchesBorder(frame->mask);
   const FrameDegradation applied = DegradeMask(options_.degradation, index, &frame->mask);
@@ -155,7 +220,8 @@ bool SequenceWriteOptions::Check(std::string* error) const {
 
 std::string SequenceSummary::BriefReport() const {
   std::ostringstream report;
-  report << "wrote " << frames << " frames to " << folder.string();
+  report << "wrote " << frames << (colour ? " frames (masks and colour frames)" : " frames")
+         << " to " << folder.string();
   std::vector<std::string> notes;
   if (missed > 0) notes.push_back(std::to_string(missed) + " missed");
   if (bad > 0) notes.push_back(std::to_string(bad) + " badly segmented");
@@ -182,13 +248,24 @@ std::filesystem::path SequenceMaskPath(const std::filesystem::path& folder, int 
   return folder / "masks" / name;
 }
 
+std::filesystem::path SequenceFramePath(const std::filesystem::path& folder, int frame) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06d.png", frame);
+  return folder / "frames" / name;
+}
+
 SequenceSummary WriteSequence(const SyntheticSequence& sequence,
                               const std::filesystem::path& folder,
                               const SequenceWriteOptions& options) {
   std::string problem;
   if (!options.Check(&problem)) ThrowError("invalid sequence writing options: ", problem);
+  const bool colour = sequence.has_colour();
+  if (options.colour_frame_sink && !colour) {
+    ThrowError("a colour frame consumer was given but the sequence has no colour frames");
+  }
+  const bool write_frames = colour && options.write_colour_frames;
   const auto start = std::chrono::steady_clock::now();
-  PrepareFolder(folder, options.overwrite);
+  PrepareFolder(folder, options.overwrite, write_frames);
   WriteCameraFile(folder / "camera.yml", sequence.camera());
 
   const int num_frames = sequence.num_frames();
@@ -197,11 +274,22 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
   std::vector<char> border(static_cast<size_t>(num_frames), 0);
   ProgressBar progress("synth", num_frames,
                        options.show_progress && ProgressBar::StderrIsTerminal());
+  // With a sink, frames are generated in batches and handed over in order after each batch; the
+  // batch bounds the colour frames held in memory.
+  const bool to_sink = static_cast<bool>(options.colour_frame_sink);
+  const int batch_size = to_sink ? 32 : std::max(num_frames, 1);
+  std::vector<cv::Mat> batch_colour(to_sink ? static_cast<size_t>(batch_size) : 0);
+  int batch_begin = 0;
   auto generate = [&](const tbb::blocked_range<int>& range) {
     SyntheticFrame frame;
     for (int k = range.begin(); k != range.end(); ++k) {
       sequence.Generate(k, &frame);
       WriteMask(SequenceMaskPath(folder, k), frame.mask);
+      if (write_frames) WriteColourFrame(SequenceFramePath(folder, k), frame.colour);
+      if (to_sink) {
+        // A copy of its own: `frame` is reused for the next one.
+        frame.colour.copyTo(batch_colour[static_cast<size_t>(k - batch_begin)]);
+      }
       const auto i = static_cast<size_t>(k);
       areas[i] = frame.rendered_area_px;
       border[i] = frame.touches_border ? 1 : 0;
@@ -209,14 +297,23 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
     }
     progress.Advance(static_cast<int64_t>(range.size()));
   };
-  if (options.num_threads == 1) {
-    constexpr int kChunk = 8;  // report progress as frames are done
-    for (int begin = 0; begin < num_frames; begin += kChunk) {
-      generate(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_frames)));
+  tbb::task_arena arena(WorkerThreads(options.num_threads));
+  for (batch_begin = 0; batch_begin < num_frames; batch_begin += batch_size) {
+    const int batch_end = std::min(batch_begin + batch_size, num_frames);
+    if (options.num_threads == 1) {
+      constexpr int kChunk = 8;  // report progress as frames are done
+      for (int begin = batch_begin; begin < batch_end; begin += kChunk) {
+        generate(tbb::blocked_range<int>(begin, std::min(begin + kChunk, batch_end)));
+      }
+    } else {
+      arena.execute(
+          [&] { tbb::parallel_for(tbb::blocked_range<int>(batch_begin, batch_end, 4), generate); });
     }
-  } else {
-    tbb::task_arena arena(WorkerThreads(options.num_threads));
-    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_frames, 4), generate); });
+    if (to_sink) {
+      for (int k = batch_begin; k < batch_end; ++k) {
+        options.colour_frame_sink(k, batch_colour[static_cast<size_t>(k - batch_begin)]);
+      }
+    }
   }
   progress.Finish();
   WriteGroundTruth(folder / "groundtruth.csv", truths);
@@ -224,6 +321,7 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
   SequenceSummary summary;
   summary.folder = folder;
   summary.frames = num_frames;
+  summary.colour = colour;
   for (size_t i = 0; i < truths.size(); ++i) {
     summary.missed += truths[i].degradation == FrameDegradation::kMissed;
     summary.bad += truths[i].degradation == FrameDegradation::kBad;
