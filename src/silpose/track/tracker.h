@@ -68,8 +68,7 @@ class Tracker {
   /// `database` must outlive the tracker. `camera` is the camera of the frames (its size must be
   /// the frames' size). Throws silpose::Error for invalid options or camera, or a database
   /// without any usable view.
-  Tracker(const ViewDatabase& database, const PinholeCamera& camera,
-          const TrackerOptions& options);
+  Tracker(const ViewDatabase& database, const PinholeCamera& camera, const TrackerOptions& options);
   /// With default options.
   Tracker(const ViewDatabase& database, const PinholeCamera& camera);
   ~Tracker();

@@ -1,0 +1,78 @@
+#pragma once
+// What a tracking run found, summarised and drawn: the estimated (and, with ground truth, the
+// true) trajectory on the view sphere (paper Fig. 5) and the pose error over the frames (paper
+// Fig. 6), as plot/figure.h figures; and, with ground truth, the accuracy figures of the run.
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "silpose/geometry/rigid3.h"
+#include "silpose/plot/figure.h"
+#include "silpose/pose/pose_error.h"
+#include "silpose/pose/pose_output.h"
+
+namespace silpose {
+
+/// The truth of one frame (e.g. from a synth folder's groundtruth.csv).
+struct TruthFrame {
+  /// Model name (mesh file stem).
+  std::string object;
+  /// Unit view direction (object centre -> camera), model frame.
+  Eigen::Vector3d view_dir_in_object = Eigen::Vector3d::UnitZ();
+  /// object_to_camera.
+  Rigid3 camera_from_object;
+  /// Object centre in the model frame (for the camera distance).
+  Eigen::Vector3d object_centre = Eigen::Vector3d::Zero();
+};
+
+/// Accuracy of a run against ground truth. Frames before `skip_frames` are left out (the filter's
+/// start-up); every later frame with a truth counts.
+struct TrackAccuracy {
+  int frames = 0;
+  /// Frames whose estimated object is the true one.
+  int right_object = 0;
+  /// The paper's pose error (view-direction distance, [0, 2]) of every frame with an estimate,
+  /// right object or not (the paper's metric counts every frame).
+  ErrorSummary view_error;
+  /// Rotation error (degrees) and translation error relative to the true camera distance from the
+  /// object centre, of frames with the right object and a 6-DOF pose.
+  ErrorSummary rotation_deg;
+  ErrorSummary translation_relative;
+
+  double RightObjectPercent() const { return frames > 0 ? 100.0 * right_object / frames : 0.0; }
+};
+
+class TrackReport {
+ public:
+  /// `object_names`: the database's model names, by index.
+  explicit TrackReport(std::vector<std::string> object_names);
+
+  /// Adds the next frame's result and, if known, its truth.
+  void Add(const FrameResult& result, const std::optional<TruthFrame>& truth = std::nullopt);
+
+  int num_frames() const { return static_cast<int>(frames_.size()); }
+  bool has_truth() const { return truth_frames_ > 0; }
+  TrackAccuracy Accuracy(int skip_frames = 0) const;
+
+  /// Paper Fig. 5: the view directions on the unit sphere, seen from +z (left panel, z >= 0) and
+  /// from -z (right panel, z < 0, mirrored so that both show the sphere as seen from outside):
+  /// the estimates as markers, one colour per object, the truth as a grey line.
+  Figure TrajectoryFigure(const std::string& title = "") const;
+  /// Paper Fig. 6: per frame the view-direction error (left) and, where a 6-DOF pose was
+  /// estimated, the rotation error in degrees (right); frames with the wrong object in red.
+  /// Requires ground truth (else the figure has no data).
+  Figure ErrorFigure(const std::string& title = "") const;
+
+ private:
+  struct Entry {
+    FrameResult result;
+    std::optional<TruthFrame> truth;
+  };
+  std::vector<std::string> object_names_;
+  std::vector<Entry> frames_;
+  int truth_frames_ = 0;
+};
+
+}  // namespace silpose
