@@ -2,13 +2,20 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <map>
 #include <memory>
+#include <optional>
+#include <sstream>
 
 #include "silpose/cli/commands.h"
-#include "silpose/filter/particle_filter.h"
-#include "silpose/io/mask_file.h"
-#include "silpose/match/view_matcher.h"
+#include "silpose/io/camera_file.h"
+#include "silpose/io/frame_source.h"
+#include "silpose/io/video_writer.h"
+#include "silpose/mesh/triangle_mesh.h"
+#include "silpose/render/overlay.h"
+#include "silpose/synth/ground_truth.h"
+#include "silpose/track/track_report.h"
+#include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
 #include "silpose/util/progress.h"
 
@@ -19,129 +26,321 @@ struct TrackArguments {
   std::string database;
   std::string input;
   std::string output;
+  std::string camera;
+  std::string json;
+  std::string bop;
+  std::string overlay;
+  std::string plots;
+  std::string ground_truth;
+  std::vector<std::string> models;
+  int max_frames = 0;
+  // Segmentation.
   std::string segment = "mask";
-  bool brute_force = false;
-  ParticleFilterOptions filter;
+  std::string background_method = "mog2";
+  std::string threshold_method = "otsu";
+  std::string object_polarity = "darker";
+  std::string component = "largest";
+  std::string hsv_range;
+  // BOP.
+  int bop_scene = 1;
+  std::vector<int> bop_object_ids;
+  double model_unit_mm = 1.0;
+  TrackerOptions tracker;
 };
 
-std::vector<std::filesystem::path> ImagesIn(const std::filesystem::path& directory) {
-  return FilesWithExtensions(
-      directory, {".png", ".pgm", ".pbm", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".webp"});
+// "H,S,V,H,S,V" -> lower and upper HSV bounds.
+void ParseHsvRange(const std::string& text, SegmenterOptions* options) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  for (std::string item; std::getline(stream, item, ',');) {
+    try {
+      size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      if (used != item.size()) values.clear();
+    } catch (const std::exception&) {
+      values.clear();
+      break;
+    }
+  }
+  if (values.size() != 6) {
+    ThrowError(
+        "--hsv-range must be six numbers H,S,V,H,S,V (lower then upper bound, H in "
+        "[0, 180), S and V in [0, 255]), got '",
+        text, "'");
+  }
+  options->hsv_lower = cv::Scalar(values[0], values[1], values[2]);
+  options->hsv_upper = cv::Scalar(values[3], values[4], values[5]);
 }
 
-// The frames of INPUT: a folder of images in name order (a synth folder's masks/ is used when
-// INPUT is the synth folder itself).
-std::vector<std::filesystem::path> InputFrames(const std::string& input) {
+// The camera: --camera, else INPUT/camera.yml for a sequence folder, else a default (warned).
+PinholeCamera ChooseCamera(const TrackArguments& arguments, cv::Size frame_size) {
+  std::filesystem::path path = arguments.camera;
   std::error_code error;
-  if (!std::filesystem::exists(input, error)) ThrowError(input, ": no such file or folder");
-  if (!std::filesystem::is_directory(input, error)) {
-    ThrowError(input, ": video files are not read yet (issue 4); give a folder of mask images");
+  if (path.empty() && std::filesystem::is_directory(arguments.input, error) &&
+      std::filesystem::is_regular_file(std::filesystem::path(arguments.input) / "camera.yml",
+                                       error)) {
+    path = std::filesystem::path(arguments.input) / "camera.yml";
   }
-  std::filesystem::path folder = input;
-  if (std::filesystem::is_directory(folder / "masks", error) && ImagesIn(folder).empty()) {
-    folder /= "masks";
+  if (!path.empty()) {
+    PinholeCamera camera = ReadCameraFile(path);
+    if (camera.width_px != frame_size.width || camera.height_px != frame_size.height) {
+      ThrowError(path.string(), ": the camera is ", camera.width_px, "x", camera.height_px,
+                 " pixels but the frames of ", arguments.input, " are ", frame_size.width, "x",
+                 frame_size.height, ": wrong calibration file?");
+    }
+    return camera;
   }
-  std::vector<std::filesystem::path> frames = ImagesIn(folder);
-  if (frames.empty())
-    ThrowError(input, ": no images (.png .pgm .bmp .tif .jpg .webp) in this folder");
-  return frames;
+  const PinholeCamera camera = DefaultCamera(frame_size.width, frame_size.height);
+  std::fprintf(stderr,
+               "warning: no --camera given: assuming focal length %.1f px and the principal point "
+               "at the image centre; object and view do not depend on it, the 6-DOF pose's "
+               "distance does\n",
+               camera.focal_x_px);
+  return camera;
+}
+
+// Ground truth: --ground-truth, else INPUT/groundtruth.csv for a sequence folder.
+std::vector<GroundTruthFrame> ChooseGroundTruth(const TrackArguments& arguments) {
+  std::filesystem::path path = arguments.ground_truth;
+  std::error_code error;
+  if (path.empty() && std::filesystem::is_directory(arguments.input, error) &&
+      std::filesystem::is_regular_file(std::filesystem::path(arguments.input) / "groundtruth.csv",
+                                       error)) {
+    path = std::filesystem::path(arguments.input) / "groundtruth.csv";
+  }
+  if (path.empty()) return {};
+  return ReadGroundTruth(path);
+}
+
+// The meshes drawn in the overlay, by model index: --models (files or folders, matched to the
+// database's models by file stem), else the paths the database was built from. A model whose mesh
+// cannot be read is drawn without its outline (one warning).
+std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackArguments& arguments,
+                                                       const ViewDatabase& database) {
+  std::map<std::string, std::filesystem::path> by_name;
+  for (const std::string& item : arguments.models) {
+    std::error_code error;
+    if (std::filesystem::is_directory(item, error)) {
+      for (const auto& file : MeshFilesIn(item)) by_name[file.stem().string()] = file;
+    } else {
+      by_name[std::filesystem::path(item).stem().string()] = item;
+    }
+  }
+  std::vector<std::optional<TriangleMesh>> meshes(database.models.size());
+  for (size_t m = 0; m < database.models.size(); ++m) {
+    const ModelViews& model = database.models[m];
+    const auto found = by_name.find(model.name);
+    const std::filesystem::path path =
+        found != by_name.end() ? found->second : std::filesystem::path(model.source_path);
+    try {
+      meshes[m] = LoadMesh(path);
+    } catch (const Error& error) {
+      std::fprintf(stderr,
+                   "warning: overlay without the outline of '%s': %s (give the meshes with "
+                   "--models)\n",
+                   model.name.c_str(), error.what());
+    }
+  }
+  return meshes;
+}
+
+struct Outputs {
+  std::unique_ptr<PosesCsvWriter> csv;
+  std::unique_ptr<JsonLinesWriter> json;
+  std::unique_ptr<BopCsvWriter> bop;
+  std::unique_ptr<VideoWriter> overlay;
+
+  void Close() {
+    if (csv) csv->Close();
+    if (json) json->Close();
+    if (bop) bop->Close();
+    if (overlay) overlay->Close();
+  }
+};
+
+void WritePlots(const TrackArguments& arguments, const TrackReport& report) {
+  if (arguments.plots.empty() || report.num_frames() == 0) return;
+  const std::filesystem::path folder = arguments.plots;
+  std::error_code error;
+  std::filesystem::create_directories(folder, error);
+  if (error) ThrowError(folder.string(), ": cannot create folder: ", error.message());
+  const std::string title = std::filesystem::path(arguments.input).filename().string();
+  const Figure trajectory = report.TrajectoryFigure(title);
+  trajectory.WriteSvg(folder / "trajectory.svg");
+  trajectory.WritePng(folder / "trajectory.png");
+  if (report.has_truth()) {
+    const Figure errors = report.ErrorFigure(title);
+    errors.WriteSvg(folder / "error.svg");
+    errors.WritePng(folder / "error.png");
+  }
+}
+
+void PrintSummary(const TrackArguments& arguments, const TrackReport& report, int measured,
+                  double total_ms, double decode_ms) {
+  const int frames = report.num_frames();
+  if (frames == 0) return;
+  std::printf(
+      "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame (+ %.2f ms "
+      "reading)%s\n",
+      frames, measured, arguments.input.c_str(), total_ms / frames, decode_ms / frames,
+      arguments.tracker.brute_force ? ", brute force" : "");
+  if (report.has_truth()) {
+    const int skip = std::min(10, frames - 1);
+    const TrackAccuracy accuracy = report.Accuracy(skip);
+    std::printf(
+        "against the ground truth, frames %d..%d: right object %.1f %%, pose error (view "
+        "direction) mean %.3f median %.3f",
+        skip, frames - 1, accuracy.RightObjectPercent(), accuracy.view_error.mean,
+        accuracy.view_error.median);
+    if (accuracy.rotation_deg.count > 0) {
+      std::printf(", rotation error median %.1f deg, translation error median %.1f %%",
+                  accuracy.rotation_deg.median, 100.0 * accuracy.translation_relative.median);
+    }
+    std::printf("\n");
+  }
 }
 
 void RunTrack(const TrackArguments& arguments) {
-  if (arguments.segment != "mask") {
-    ThrowError("--segment ", arguments.segment, " is not available yet; only 'mask' (issue 4)");
+  TrackerOptions options = arguments.tracker;
+  SegmenterOptions& segment = options.segmentation;
+  segment.kind = ParseSegmenterKind(arguments.segment);
+  segment.background_method = ParseBackgroundMethod(arguments.background_method);
+  segment.threshold_method = ParseThresholdMethod(arguments.threshold_method);
+  segment.otsu_object = ParseObjectPolarity(arguments.object_polarity);
+  segment.component = ParseSegmentComponent(arguments.component);
+  if (!arguments.hsv_range.empty()) {
+    ParseHsvRange(arguments.hsv_range, &segment);
+    segment.threshold_method = ThresholdMethod::kHsvRange;
   }
-  const std::vector<std::filesystem::path> frames = InputFrames(arguments.input);
-  const ViewDatabase database = ViewDatabase::Read(arguments.database);
-  const ViewSpectra spectra(database);
-  std::unique_ptr<ParticleFilter> filter;
-  std::unique_ptr<ViewMatcher> matcher;
-  if (arguments.brute_force) {
-    matcher = std::make_unique<ViewMatcher>(spectra);
-  } else {
-    ParticleFilterOptions options = arguments.filter;
-    // POSES.csv needs each frame's estimate only: keep little history so that memory stays
-    // bounded on long videos (a full history costs ~1.6 kB per frame with 20 objects).
-    options.max_history_frames = 100;
-    filter = std::make_unique<ParticleFilter>(database.sphere, spectra, options);
-  }
-  std::ofstream csv(arguments.output);
-  if (!csv) ThrowError(arguments.output, ": cannot open for writing");
-  csv << "frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,"
-         "particles,effective_particles\n";
-  csv.precision(9);
+  if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
+  std::string problem;
+  if (!options.Check(&problem)) ThrowError(problem);
 
-  ProgressBar progress("track", static_cast<int64_t>(frames.size()));
+  FrameSourceOptions source_options;
+  source_options.sequence_folder =
+      segment.kind == SegmenterKind::kMask ? SequenceFolder::kMasks : SequenceFolder::kFrames;
+  std::unique_ptr<FrameSource> source = OpenFrameSource(arguments.input, source_options);
+  const ViewDatabase database = ViewDatabase::Read(arguments.database);
+
+  // The first frame fixes the size (cameras and unindexed videos do not say it before).
+  cv::Mat frame;
+  auto read_start = std::chrono::steady_clock::now();
+  if (!source->Read(&frame)) ThrowError(arguments.input, ": no frames");
+  double decode_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start)
+          .count();
+  const PinholeCamera camera = ChooseCamera(arguments, frame.size());
+  Tracker tracker(database, camera, options);
+
+  const std::vector<GroundTruthFrame> truth = ChooseGroundTruth(arguments);
+  std::vector<std::string> names;
+  for (const ModelViews& model : database.models) names.push_back(model.name);
+  TrackReport report(names);
+
+  Outputs outputs;
+  outputs.csv = std::make_unique<PosesCsvWriter>(arguments.output);
+  if (!arguments.json.empty()) outputs.json = std::make_unique<JsonLinesWriter>(arguments.json);
+  if (!arguments.bop.empty()) {
+    BopOutputOptions bop;
+    bop.scene_id = arguments.bop_scene;
+    bop.object_ids = arguments.bop_object_ids;
+    bop.model_unit_mm = arguments.model_unit_mm;
+    if (!bop.object_ids.empty() && bop.object_ids.size() != database.models.size()) {
+      ThrowError("--bop-object-ids gives ", bop.object_ids.size(), " ids for ",
+                 database.models.size(), " models in ", arguments.database);
+    }
+    outputs.bop = std::make_unique<BopCsvWriter>(arguments.bop, bop);
+  }
+  std::vector<std::optional<TriangleMesh>> meshes;
+  if (!arguments.overlay.empty()) {
+    const double fps = source->fps() > 0.0 ? source->fps() : 30.0;
+    outputs.overlay = OpenVideoWriter(arguments.overlay, frame.size(), fps);
+    meshes = OverlayMeshes(arguments, database);
+  }
+
+  std::optional<int> total = source->num_frames();
+  if (total && arguments.max_frames > 0) total = std::min(*total, arguments.max_frames);
+  ProgressBar progress("track", total.value_or(0));
   int measured = 0;
   double total_ms = 0.0;
-  std::string last_object;
-  double last_probability = 0.0;
-  for (size_t f = 0; f < frames.size(); ++f) {
-    const auto start = std::chrono::steady_clock::now();
-    const cv::Mat mask = ReadMask(frames[f]);
-    const SignatureResult silhouette = ExtractSignature(mask, database.parameters.signature);
-    std::string status =
-        silhouette.ok() ? "measured" : std::string("no-silhouette-") + ToString(silhouette.status);
-    int object = -1, view = -1, particles = 0;
-    double roll = std::nan(""), probability = std::nan(""), effective = std::nan("");
-    float score = std::nanf("");
-    if (filter) {
-      const FilterEstimate estimate =
-          silhouette.ok() ? filter->Step(silhouette.signature.radii) : filter->Predict();
-      if (!estimate.measured) status = "predicted-" + status;
-      object = estimate.object;
-      view = estimate.view;
-      if (estimate.roll_known) roll = estimate.roll_deg;
-      score = estimate.score;
-      probability = estimate.object_probability[static_cast<size_t>(object)];
-      particles = estimate.num_particles;
-      effective = estimate.effective_particles;
-    } else if (silhouette.ok()) {
-      const std::vector<MatchCandidate> top =
-          matcher->Match(silhouette.signature.radii, {.top_k = 1});
-      if (!top.empty()) {
-        object = top.front().model;
-        view = top.front().view;
-        roll = top.front().roll_deg;
-        score = top.front().score;
+  try {
+    do {
+      const int index = source->frame_index();
+      TrackedFrame tracked = tracker.Process(frame);
+      tracked.result.frame_name = source->name();
+      const FrameResult& result = tracked.result;
+      total_ms += result.time_ms;
+      measured += tracked.silhouette.ok();
+      outputs.csv->Write(result);
+      if (outputs.json) outputs.json->Write(result);
+      if (outputs.bop) outputs.bop->Write(result);
+      std::optional<TruthFrame> frame_truth;
+      const auto row =
+          std::lower_bound(truth.begin(), truth.end(), index,
+                           [](const GroundTruthFrame& a, int value) { return a.frame < value; });
+      if (row != truth.end() && row->frame == index) {
+        TruthFrame t;
+        t.object = row->object;
+        t.view_dir_in_object = row->view_dir_in_object;
+        t.camera_from_object = row->camera_from_object;
+        const int model = database.FindModel(row->object);
+        if (model >= 0) {
+          const ModelViews& views = database.models[static_cast<size_t>(model)];
+          t.object_centre = Eigen::Vector3d(views.centre[0], views.centre[1], views.centre[2]);
+        }
+        frame_truth = t;
       }
+      report.Add(result, frame_truth);
+      if (outputs.overlay) {
+        OverlayOptions overlay;
+        overlay.frame_number = index;
+        PosedModel posed;
+        const PosedModel* model = nullptr;
+        if (result.camera_from_object && result.object >= 0 &&
+            meshes[static_cast<size_t>(result.object)]) {
+          posed.mesh = &*meshes[static_cast<size_t>(result.object)];
+          posed.camera = camera;
+          posed.camera_from_object = *result.camera_from_object;
+          model = &posed;
+        }
+        const std::string label =
+            result.object >= 0 ? result.object_name : std::string("(no estimate)");
+        outputs.overlay->Write(
+            DrawOverlay(frame, tracked.segmentation.mask, model, label, result.score, overlay));
+      }
+      progress.Advance();
+      if (arguments.max_frames > 0 && tracker.num_frames() >= arguments.max_frames) break;
+      read_start = std::chrono::steady_clock::now();
+      const bool more = source->Read(&frame);
+      decode_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start)
+              .count();
+      if (!more) break;
+    } while (true);
+  } catch (const Error& error) {
+    // Keep what was tracked before the fault: the rows are on disk already; finish the overlay
+    // video and the plots, then report the fault.
+    progress.Finish();
+    try {
+      outputs.Close();
+      WritePlots(arguments, report);
+    } catch (const Error& second) {
+      std::fprintf(stderr, "warning: %s\n", second.what());
     }
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    total_ms += ms;
-    measured += silhouette.ok();
-    csv << f << ',';
-    if (object >= 0) {
-      const Eigen::Vector3d& d = database.sphere.directions[static_cast<size_t>(view)];
-      last_object = database.models[static_cast<size_t>(object)].name;
-      last_probability = probability;
-      csv << last_object << ',' << score << ',';
-      if (!std::isnan(probability)) csv << probability;
-      csv << ',' << d.x() << ',' << d.y() << ',' << d.z() << ',';
-      if (!std::isnan(roll)) csv << roll;
-    } else {
-      csv << ",,,,,,";
-    }
-    csv << ',' << status << ',' << ms << ',';
-    if (particles > 0)
-      csv << particles << ',' << effective;
-    else
-      csv << ',';
-    csv << '\n';
-    progress.Advance();
+    PrintSummary(arguments, report, measured, total_ms, decode_ms);
+    ThrowError(error.what(), " (stopped after ", report.num_frames(),
+               " frames; their results are in ", arguments.output, ")");
   }
   progress.Finish();
-  csv.close();
-  if (!csv) ThrowError(arguments.output, ": write failed");
-  std::printf("tracked %zu frames (%d with a usable silhouette) from %s, %.2f ms per frame%s\n",
-              frames.size(), measured, arguments.input.c_str(),
-              total_ms / static_cast<double>(frames.size()),
-              arguments.brute_force ? " (brute force)" : "");
-  if (!last_object.empty()) {
-    std::printf("last frame: %s", last_object.c_str());
-    if (!arguments.brute_force) std::printf(" (probability %.3f)", last_probability);
-    std::printf("; wrote %s\n", arguments.output.c_str());
+  outputs.Close();
+  WritePlots(arguments, report);
+  PrintSummary(arguments, report, measured, total_ms, decode_ms);
+  std::printf("wrote %s", arguments.output.c_str());
+  for (const std::string* extra :
+       {&arguments.json, &arguments.bop, &arguments.overlay, &arguments.plots}) {
+    if (!extra->empty()) std::printf(", %s", extra->c_str());
   }
+  std::printf("\n");
 }
 
 }  // namespace
@@ -150,29 +349,95 @@ void AddTrackCommand(CLI::App& app) {
   auto arguments = std::make_shared<TrackArguments>();
   CLI::App* command = app.add_subcommand(
       "track",
-      "Identify the object and follow its pose through a sequence of masks with the particle "
-      "filter over (object, view, roll) of the paper; writes one POSES.csv row per frame.");
+      "Identify the object and follow its 6-DOF pose through a video, an image folder or a camera "
+      "with the particle filter over (object, view, roll) of the paper; writes one POSES.csv row "
+      "per frame, and on request JSON Lines, BOP19 results, an overlay video and plots.");
   command->add_option("-d,--database", arguments->database, "Database file from build-db")
       ->required();
   command
       ->add_option("input", arguments->input,
-                   "Folder of mask images, taken in name order (or a synth folder)")
+                   "Folder of images (name order; a synth folder's masks/ or, with --segment "
+                   "bgsub/threshold, frames/), a video file (.avi; .mp4 and others in a "
+                   "SILPOSE_WITH_VIDEOIO build), or a camera index (SILPOSE_WITH_VIDEOIO build)")
       ->required();
   command->add_option("-o,--output", arguments->output, "POSES.csv to write")->required();
+  command->add_option("--camera", arguments->camera,
+                      "OpenCV calibration YAML of the camera (silpose calibrate); default: "
+                      "INPUT/camera.yml for a synth folder, else focal 0.82 x width (a warning)");
+  command->add_option("--json", arguments->json, "Also write the results as JSON Lines");
+  command->add_option("--bop", arguments->bop,
+                      "Also write a BOP19 results CSV (scene_id,im_id,obj_id,score,R,t,time)");
+  command->add_option("--bop-scene", arguments->bop_scene, "BOP scene_id")->capture_default_str();
   command
-      ->add_option("--particles", arguments->filter.particles_per_object,
-                   "Particles per object (paper: 60)")
+      ->add_option("--bop-object-ids", arguments->bop_object_ids,
+                   "BOP obj_id of each database model, in database order (default 1, 2, ...)")
+      ->delimiter(',');
+  command
+      ->add_option("--model-unit-mm", arguments->model_unit_mm,
+                   "Millimetres per model unit, for BOP's t in mm (1000 for meshes in metres)")
       ->capture_default_str();
-  command->add_flag("--adaptive", arguments->filter.adaptive,
+  command->add_option("--overlay", arguments->overlay,
+                      "Write a video of the frames with the segmentation (red) and the model at "
+                      "the estimated pose (green): .avi (MJPEG), or .mp4 in a SILPOSE_WITH_VIDEOIO "
+                      "build");
+  command->add_option("--models", arguments->models,
+                      "Meshes (files or folders) for the overlay, matched to the database models "
+                      "by name; default: the paths the database was built from");
+  command->add_option("--plots", arguments->plots,
+                      "Folder for trajectory.svg/png (view sphere, paper Fig. 5) and, with ground "
+                      "truth, error.svg/png (pose error over frames, Fig. 6)");
+  command->add_option("--ground-truth", arguments->ground_truth,
+                      "groundtruth.csv to compare with (default: INPUT/groundtruth.csv of a synth "
+                      "folder)");
+  command->add_option("--max-frames", arguments->max_frames, "Stop after N frames (0: all)");
+  ParticleFilterOptions& filter = arguments->tracker.filter;
+  command
+      ->add_option("--particles", filter.particles_per_object, "Particles per object (paper: 60)")
+      ->capture_default_str();
+  command->add_flag("--adaptive", filter.adaptive,
                     "Adapt the particle count per object by KLD-sampling (paper 4.3)");
-  command->add_flag("--brute-force", arguments->brute_force,
+  command->add_flag("--brute-force", arguments->tracker.brute_force,
                     "Match every frame against the whole database independently (the paper's "
                     "baseline) instead of filtering");
-  command->add_option("--seed", arguments->filter.seed, "Seed of the particle filter")
-      ->capture_default_str();
+  command->add_option("--seed", filter.seed, "Seed of the particle filter")->capture_default_str();
+  SegmenterOptions& segment = arguments->tracker.segmentation;
   command
       ->add_option("--segment", arguments->segment,
-                   "How frames become silhouettes: mask (frames are masks)")
+                   "How frames become silhouettes: mask (frames are masks), bgsub (static camera: "
+                   "background subtraction), threshold (Otsu or --hsv-range)")
+      ->capture_default_str();
+  command->add_option("--bg-method", arguments->background_method, "bgsub: mog2 or knn")
+      ->capture_default_str();
+  command->add_option("--background", segment.background_image_path,
+                      "bgsub: image of the empty scene (default: learn from the first frames)");
+  command
+      ->add_option("--learning-frames", segment.learning_frames,
+                   "bgsub: frames learned before tracking starts (the scene should be empty or "
+                   "the object moving)")
+      ->capture_default_str();
+  command->add_option("--threshold-method", arguments->threshold_method, "threshold: otsu or hsv")
+      ->capture_default_str();
+  command
+      ->add_option("--object-polarity", arguments->object_polarity,
+                   "threshold otsu: the object is darker or brighter than the background")
+      ->capture_default_str();
+  command->add_option("--hsv-range", arguments->hsv_range,
+                      "threshold: object colours H,S,V,H,S,V (OpenCV ranges H 0-179, S, V 0-255)");
+  command
+      ->add_option("--mask-threshold", segment.mask_threshold,
+                   "mask: a pixel is object above this value (0: non-zero; 127 for lossy masks)")
+      ->capture_default_str();
+  command
+      ->add_option("--morphology", segment.morphology_px,
+                   "Radius of the clean-up opening/closing, pixels (-1: 0 for masks, 2 otherwise)")
+      ->capture_default_str();
+  command
+      ->add_option("--component", arguments->component,
+                   "Which blob is the object: largest, or nearest (to the last frame's)")
+      ->capture_default_str();
+  command
+      ->add_option("--downscale", segment.downscale,
+                   "bgsub/threshold: segment a frame shrunk by this factor (faster)")
       ->capture_default_str();
   command->callback([arguments] { RunTrack(*arguments); });
 }

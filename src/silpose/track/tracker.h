@@ -29,6 +29,13 @@
 
 namespace silpose {
 
+/// The camera assumed when the user gives none (`silpose track` warns): principal point at the
+/// image centre ((w - 1) / 2, (h - 1) / 2), square pixels, focal length 0.8203 * width (525 px at
+/// 640 pixels: the VGA camera of the usual RGB-D datasets and of `silpose synth`; horizontal field
+/// of view 62.7 degrees), no distortion. Object identity and view do not depend on it; the 6-DOF
+/// pose's distance scales with the focal length.
+PinholeCamera DefaultCamera(int width_px, int height_px);
+
 struct TrackerOptions {
   /// How frames become masks (segment/segmenter.h). Default: the frames are masks.
   SegmenterOptions segmentation;
