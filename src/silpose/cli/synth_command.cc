@@ -7,6 +7,7 @@
 
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
+#include "silpose/io/video_writer.h"
 #include "silpose/synth/colour_frames.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
@@ -42,6 +43,8 @@ struct SynthArguments {
   CLI::Option* distance_option = nullptr;
   CLI::Option* range_option = nullptr;
   CLI::Option* roll_speed_option = nullptr;
+  bool video = false;
+  double fps = 30.0;
   std::vector<CLI::Option*> colour_options;  // need --colour
 };
 
@@ -175,6 +178,7 @@ void RunSynth(const SynthArguments& arguments) {
     ThrowError("invalid degradation (--noise, --erode, --missed, --bad, ...): ", problem);
   }
   if (arguments.threads < 0) ThrowError("--threads must be >= 0 (0 = all cores)");
+  if (!(arguments.fps > 0.0 && arguments.fps <= 1000.0)) ThrowError("--fps must be in (0, 1000]");
   if (!arguments.camera.empty()) options.camera = ReadCameraFile(arguments.camera);
   options.colour = MakeColour(arguments, static_cast<int>(arguments.models.size()));
 
@@ -189,8 +193,19 @@ void RunSynth(const SynthArguments& arguments) {
     meshes.push_back(LoadMesh(model));
   }
   const SyntheticSequence sequence(std::move(meshes), options);
-  const SequenceSummary summary =
-      WriteSequence(sequence, arguments.output, MakeWriteOptions(arguments));
+  SequenceWriteOptions write = MakeWriteOptions(arguments);
+  std::unique_ptr<VideoWriter> video;
+  if (arguments.video) {
+    // DIR/video.avi: the colour frames as one MJPEG video, what a camera would record.
+    std::error_code error;
+    std::filesystem::create_directories(arguments.output, error);
+    video =
+        OpenVideoWriter(std::filesystem::path(arguments.output) / "video.avi",
+                        cv::Size(options.camera.width_px, options.camera.height_px), arguments.fps);
+    write.colour_frame_sink = [&video](int, const cv::Mat& frame) { video->Write(frame); };
+  }
+  const SequenceSummary summary = WriteSequence(sequence, arguments.output, write);
+  if (video) video->Close();
   std::printf("%s: %s trajectory, %s, %dx%d camera\n", summary.BriefReport().c_str(),
               TrajectoryKindName(options.trajectory.kind),
               sequence.meshes().size() == 1
@@ -341,7 +356,12 @@ void AddSynthCommand(CLI::App& app) {
           ->add_option("--object-colour", arguments->object_colours,
                        "Colour of the models in the colour frames: B,G,R (0..255) for all, or "
                        "B,G,R,B,G,R,... one per model (default: a distinct colour per model)")
-          ->delimiter(',')};
+          ->delimiter(','),
+      command->add_flag("--video", arguments->video,
+                        "Also write the colour frames as one video, DIR/video.avi (MJPEG), as a "
+                        "camera would record it"),
+      command->add_option("--fps", arguments->fps, "Frame rate of DIR/video.avi")
+          ->capture_default_str()};
   command
       ->add_option("--seed", arguments->seed,
                    "Seed of the walk, the degradations and the colour frames' texture and noise")

@@ -213,6 +213,17 @@ void RunTrack(const TrackArguments& arguments) {
     segment.threshold_method = ThresholdMethod::kHsvRange;
   }
   if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
+  // A synth folder holds its empty scene: learn the background from it rather than from frames
+  // that already show the object.
+  std::error_code error;
+  if (segment.kind == SegmenterKind::kBackground && segment.background_image_path.empty() &&
+      std::filesystem::is_directory(arguments.input, error) &&
+      std::filesystem::is_regular_file(std::filesystem::path(arguments.input) / "background.png",
+                                       error)) {
+    segment.background_image_path =
+        (std::filesystem::path(arguments.input) / "background.png").string();
+    std::printf("background subtraction from %s\n", segment.background_image_path.c_str());
+  }
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
 
@@ -317,7 +328,7 @@ void RunTrack(const TrackArguments& arguments) {
               .count();
       if (!more) break;
     } while (true);
-  } catch (const Error& error) {
+  } catch (const Error& fault) {
     // Keep what was tracked before the fault: the rows are on disk already; finish the overlay
     // video and the plots, then report the fault.
     progress.Finish();
@@ -328,7 +339,7 @@ void RunTrack(const TrackArguments& arguments) {
       std::fprintf(stderr, "warning: %s\n", second.what());
     }
     PrintSummary(arguments, report, measured, total_ms, decode_ms);
-    ThrowError(error.what(), " (stopped after ", report.num_frames(),
+    ThrowError(fault.what(), " (stopped after ", report.num_frames(),
                " frames; their results are in ", arguments.output, ")");
   }
   progress.Finish();

@@ -259,17 +259,18 @@ std::unique_ptr<FrameSource> OpenFrameSource(const std::string& input,
   }
 
   if (std::filesystem::is_directory(path, error)) {
-    std::vector<std::filesystem::path> images = ImageFilesIn(path);
-    if (images.empty()) {
-      std::array<const char*, 2> order = {"masks", "frames"};
-      if (options.sequence_folder == SequenceFolder::kFrames) std::swap(order[0], order[1]);
-      for (const char* subfolder : order) {
-        if (std::filesystem::is_directory(path / subfolder, error)) {
-          images = ImageFilesIn(path / subfolder);
-          if (!images.empty()) break;
-        }
+    // A sequence folder (masks/ or frames/ with images) is read from the subfolder even if it
+    // holds images of its own (a synth folder's background.png).
+    std::vector<std::filesystem::path> images;
+    std::array<const char*, 2> order = {"masks", "frames"};
+    if (options.sequence_folder == SequenceFolder::kFrames) std::swap(order[0], order[1]);
+    for (const char* subfolder : order) {
+      if (std::filesystem::is_directory(path / subfolder, error)) {
+        images = ImageFilesIn(path / subfolder);
+        if (!images.empty()) break;
       }
     }
+    if (images.empty()) images = ImageFilesIn(path);
     if (images.empty()) {
       ThrowError(input,
                  ": no images (.png .pgm .pbm .ppm .bmp .tif .jpg .webp) in this folder nor in "

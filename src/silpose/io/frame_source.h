@@ -26,8 +26,8 @@ enum class FrameColor {
   kBgr,       ///< Always CV_8UC3 BGR (grey is replicated).
 };
 
-/// Which subfolder of a sequence folder to read (a folder with masks/ and/or frames/ subfolders and
-/// no images of its own, as `silpose synth` writes).
+/// Which subfolder of a sequence folder to read (a folder with masks/ and/or frames/ subfolders
+/// holding images, as `silpose synth` writes; images in the folder itself are then ignored).
 enum class SequenceFolder {
   kMasks,   ///< masks/ (silhouettes); frames/ if there is no masks/ with images.
   kFrames,  ///< frames/ (colour video, e.g. for background subtraction); masks/ if no frames/.
@@ -110,8 +110,9 @@ class ImageFolderSource final : public FrameSource {
 };
 
 /// Opens INPUT as DESIGN.md's `track` describes:
-///  - an existing folder: its images in name order (extensions as ImageFilesIn); a folder without
-///    images that has masks/ or frames/ subfolders: one of them, by options.sequence_folder;
+///  - an existing folder: with masks/ or frames/ subfolders holding images, one of them (by
+///    options.sequence_folder); otherwise its own images in name order (extensions as
+///    ImageFilesIn);
 ///  - an existing file ending in .avi: silpose's own AVI reader (AviReader); with videoio, an AVI
 ///    whose codec that reader does not decode goes to OpenCV instead;
 ///  - an existing image file: a one-frame source;

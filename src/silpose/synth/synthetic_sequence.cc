@@ -267,6 +267,8 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
   const auto start = std::chrono::steady_clock::now();
   PrepareFolder(folder, options.overwrite, write_frames);
   WriteCameraFile(folder / "camera.yml", sequence.camera());
+  // The empty scene, for background subtraction from an image (track --background).
+  if (write_frames) WriteColourFrame(folder / "background.png", sequence.background());
 
   const int num_frames = sequence.num_frames();
   std::vector<GroundTruthFrame> truths(static_cast<size_t>(num_frames));

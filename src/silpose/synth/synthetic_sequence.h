@@ -3,6 +3,7 @@
 // (synth/trajectory.h) rendered frame by frame with a pinhole camera, degraded as asked
 // (synth/degradation.h), and written as a sequence folder (DESIGN.md, "synth DIR"):
 //   DIR/masks/000000.png, 000001.png, ...   CV_8UC1 PNG, 255 = object (after degradation)
+//   DIR/background.png                      CV_8UC3 PNG, the empty scene (with colour frames)
 //   DIR/frames/000000.png, ...              CV_8UC3 PNG, the colour frames (when asked for:
 //                                           SequenceOptions::colour, synth/colour_frames.h)
 //   DIR/camera.yml                          OpenCV calibration YAML (io/camera_file.h)

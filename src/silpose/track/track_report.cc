@@ -1,5 +1,6 @@
 #include "silpose/track/track_report.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace silpose {
@@ -68,12 +69,20 @@ Figure TrackReport::TrajectoryFigure(const std::string& title) const {
   Figure figure;
   figure.width_px = 1000;
   figure.height_px = 520;
+  std::vector<int> order;  // objects in order of first appearance among the estimates
+  for (const Entry& entry : frames_) {
+    const int o = entry.result.object;
+    if (o >= 0 && static_cast<size_t>(o) < object_names_.size() &&
+        std::find(order.begin(), order.end(), o) == order.end()) {
+      order.push_back(o);
+    }
+  }
   for (int side : {+1, -1}) {
     PlotPanel panel;
-    panel.title = side > 0 ? "view sphere from +z (z >= 0)" : "view sphere from -z (z < 0)";
-    if (!title.empty() && side > 0) panel.title = title + ": " + panel.title;
+    panel.title = side > 0 && !title.empty() ? title + ": " : std::string();
+    panel.title += side > 0 ? "view sphere from +z (z >= 0)" : "view sphere from -z (z < 0)";
     panel.x_axis.label = side > 0 ? "x" : "-x";
-    if (!title.empty() && side > 0) panel.title.insert(0, title + ": ");
+    panel.y_axis.label = std::string("y");  // (a literal trips GCC 12's -Wrestrict)
     panel.x_axis.min = panel.y_axis.min = -1.1;
     panel.x_axis.max = panel.y_axis.max = 1.1;
     panel.equal_aspect = true;
@@ -103,14 +112,17 @@ Figure TrackReport::TrajectoryFigure(const std::string& title) const {
       run.y.push_back(entry.truth->view_dir_in_object.y());
     }
     flush();
-    // The estimates: markers, one series per object.
-    for (size_t o = 0; o < object_names_.size(); ++o) {
+    // The estimates: markers, one series per object, coloured in order of first appearance
+    // (palette grey is the truth's).
+    for (size_t k = 0; k < order.size(); ++k) {
+      const size_t o = static_cast<size_t>(order[k]);
       PlotSeries estimates;
       estimates.label = object_names_[o];
       estimates.line = false;
       estimates.marker = Marker::kCircle;
       estimates.marker_radius_px = 2.5;
-      estimates.colour = PaletteColour(static_cast<int>(o));
+      const int colour = static_cast<int>(k) % 9;
+      estimates.colour = PaletteColour(colour >= 7 ? colour + 1 : colour);
       for (const Entry& entry : frames_) {
         if (entry.result.object != static_cast<int>(o) || !entry.result.view_dir_in_object)
           continue;

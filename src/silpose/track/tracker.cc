@@ -87,9 +87,17 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   int view = -1;
   bool roll_known = false;
   if (filter_) {
-    const FilterEstimate estimate =
+    tracked.estimate =
         usable ? filter_->Step(tracked.silhouette.signature.radii) : filter_->Predict();
+    const FilterEstimate& estimate = *tracked.estimate;
+    result.particles = estimate.num_particles;
+    result.effective_particles = estimate.effective_particles;
     if (!estimate.measured) result.status = "predicted-" + result.status;
+    measured_frames_ += estimate.measured;
+  }
+  if (filter_ && measured_frames_ > 0) {
+    // Before the first measurement the filter's particles are its uniform prior: no estimate.
+    const FilterEstimate& estimate = *tracked.estimate;
     result.object = estimate.object;
     view = estimate.view;
     roll_known = estimate.roll_known;
@@ -97,10 +105,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     result.score = static_cast<double>(estimate.score);
     if (estimate.object >= 0)
       result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
-    result.particles = estimate.num_particles;
-    result.effective_particles = estimate.effective_particles;
-    tracked.estimate = estimate;
-  } else if (usable) {
+  } else if (!filter_ && usable) {
     const std::vector<MatchCandidate> top =
         matcher_->Match(tracked.silhouette.signature.radii, {.top_k = 1});
     if (!top.empty()) {

@@ -12,7 +12,8 @@
 //
 // A frame whose segmentation fails (still learning the background, nothing found, the whole frame
 // changed) or whose silhouette cannot be described (too small, ...) is not an error: the filter
-// only predicts, the result's status says why, and there is no pose for it.
+// only predicts, the result's status says why, and there is no pose for it. Until the first frame
+// with a silhouette the result names no object.
 
 #include <memory>
 #include <optional>
@@ -102,6 +103,7 @@ class Tracker {
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
   int frame_ = 0;
+  int measured_frames_ = 0;
 };
 
 }  // namespace silpose

@@ -119,15 +119,20 @@ TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
 
 TEST(Tracker, FrameWithoutSilhouetteIsAPredictionWithoutPose) {
   Tracker tracker(Database(), Sequence().camera());
-  tracker.Process(Sequence().Generate(0).mask);
   const cv::Mat blank = cv::Mat::zeros(Sequence().Generate(1).mask.size(), CV_8UC1);
+  // Before any silhouette: a prediction of the uniform prior, which names no object.
+  const TrackedFrame first = tracker.Process(blank);
+  EXPECT_EQ(first.result.object, -1);
+  EXPECT_FALSE(first.result.view_dir_in_object.has_value());
+  EXPECT_EQ(first.result.status, "predicted-no-silhouette-empty");
+  tracker.Process(Sequence().Generate(0).mask);
   const TrackedFrame tracked = tracker.Process(blank);
   EXPECT_EQ(tracked.result.status, "predicted-no-silhouette-empty");
   EXPECT_FALSE(tracked.result.camera_from_object.has_value());
   ASSERT_TRUE(tracked.estimate.has_value());
   EXPECT_FALSE(tracked.estimate->measured);
   EXPECT_GE(tracked.result.object, 0);  // the filter still has an estimate
-  EXPECT_EQ(tracker.num_frames(), 2);
+  EXPECT_EQ(tracker.num_frames(), 3);
 }
 
 TEST(Tracker, RefusesFramesOfAnotherSize) {
