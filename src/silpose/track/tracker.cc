@@ -23,6 +23,8 @@ ParticleFilterOptions TrackerOptions::DefaultFilterOptions() {
   return options;
 }
 
+TrackerOptions::TrackerOptions() = default;
+
 bool TrackerOptions::Check(std::string* error) const {
   std::string problem;
   if (!segmentation.Check(&problem)) {

@@ -38,6 +38,9 @@ namespace silpose {
 PinholeCamera DefaultCamera(int width_px, int height_px);
 
 struct TrackerOptions {
+  /// The defaults below (out of line: GCC 12 warns spuriously about inlined copies of them).
+  TrackerOptions();
+
   /// How frames become masks (segment/segmenter.h). Default: the frames are masks.
   SegmenterOptions segmentation;
   /// Match every frame against the whole database independently (the paper's baseline) instead

@@ -1,0 +1,110 @@
+// Throughput of `silpose track` on a 640 x 480 video, single thread, decoding included (issue 4):
+// the frames of an AVI file are read, segmented, described, filtered (20 objects x 60 particles
+// with the 20 reference models) and turned into a 6-DOF pose, as the command does per frame.
+//  - BM_TrackMaskVideo:  a mask video (lossless PNG frames), --segment mask
+//  - BM_TrackColourVideo: a colour video (MJPEG, camera noise), --segment bgsub (MOG2 or KNN,
+//    learned from the empty scene's image)
+// items_per_second is frames per second. The videos (300 frames of a random walk around the
+// elephant, or the first model) are rendered once into a temporary folder.
+
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "bench_models.h"
+#include "silpose/database/database_builder.h"
+#include "silpose/io/frame_source.h"
+#include "silpose/io/video_writer.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/tracker.h"
+
+namespace silpose {
+namespace {
+
+constexpr int kFrames = 300;
+
+struct Fixture {
+  ViewDatabase database;
+  PinholeCamera camera;
+  std::filesystem::path folder;
+};
+
+const Fixture& GetFixture() {
+  static const Fixture* fixture = [] {
+    auto* f = new Fixture;
+    const std::vector<std::filesystem::path> models = BenchModels();
+    DatabaseBuildOptions build;
+    build.num_threads = 0;
+    f->database = BuildViewDatabase(models, build);
+    std::filesystem::path flown = models.front();
+    for (const auto& model : models)
+      if (model.stem() == "elephant") flown = model;
+    SequenceOptions options;
+    options.trajectory.kind = TrajectoryKind::kWalk;
+    options.trajectory.num_frames = kFrames;
+    options.colour.enabled = true;
+    options.colour.noise_sigma = 3.0;
+    const SyntheticSequence sequence({LoadMesh(flown)}, options);
+    f->camera = sequence.camera();
+    f->folder = std::filesystem::temp_directory_path() / "silpose_track_bench";
+    std::filesystem::create_directories(f->folder);
+    const cv::Size size(f->camera.width_px, f->camera.height_px);
+    VideoWriterOptions lossless;
+    lossless.avi_codec = AviCodec::kPng;
+    auto masks = OpenVideoWriter(f->folder / "masks.avi", size, 30.0, lossless);
+    auto colour = OpenVideoWriter(f->folder / "video.avi", size, 30.0);
+    for (int k = 0; k < kFrames; ++k) {
+      const SyntheticFrame frame = sequence.Generate(k);
+      masks->Write(frame.mask);
+      colour->Write(frame.colour);
+    }
+    masks->Close();
+    colour->Close();
+    cv::imwrite((f->folder / "background.png").string(), sequence.background());
+    return f;
+  }();
+  return *fixture;
+}
+
+void RunVideo(benchmark::State& state, const std::string& video, const TrackerOptions& options) {
+  const Fixture& fixture = GetFixture();
+  cv::setNumThreads(1);
+  int64_t frames = 0;
+  int measured = 0;
+  for (auto _ : state) {
+    std::unique_ptr<FrameSource> source = OpenFrameSource((fixture.folder / video).string());
+    Tracker tracker(fixture.database, fixture.camera, options);
+    for (cv::Mat frame; source->Read(&frame);) {
+      const TrackedFrame tracked = tracker.Process(frame);
+      measured += tracked.result.camera_from_object.has_value();
+      ++frames;
+    }
+  }
+  state.SetItemsProcessed(frames);
+  state.counters["frames_with_pose"] =
+      benchmark::Counter(static_cast<double>(measured) / static_cast<double>(state.iterations()));
+}
+
+void BM_TrackMaskVideo(benchmark::State& state) {
+  const TrackerOptions options;
+  RunVideo(state, "masks.avi", options);
+}
+BENCHMARK(BM_TrackMaskVideo)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+void BM_TrackColourVideo(benchmark::State& state) {
+  TrackerOptions options;
+  options.segmentation.kind = SegmenterKind::kBackground;
+  options.segmentation.background_method =
+      state.range(0) == 0 ? BackgroundMethod::kMog2 : BackgroundMethod::kKnn;
+  options.segmentation.background_image_path = (GetFixture().folder / "background.png").string();
+  state.SetLabel(state.range(0) == 0 ? "bgsub mog2" : "bgsub knn");
+  RunVideo(state, "video.avi", options);
+}
+BENCHMARK(BM_TrackColourVideo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+}  // namespace
+}  // namespace silpose
+
+BENCHMARK_MAIN();
