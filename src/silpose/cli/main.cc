@@ -1,12 +1,25 @@
 // silpose: which known rigid object a camera sees, and where it is, from its silhouette.
 // Subcommands are listed in commands.h; each parses its options and calls the library.
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <opencv2/core.hpp>
 
 #include "silpose/cli/commands.h"
 #include "silpose/util/error.h"
+
+namespace {
+
+// Error messages are one line on stderr (OpenCV's texts carry line breaks).
+std::string OneLine(const char* text) {
+  std::string line(text);
+  std::replace(line.begin(), line.end(), '\n', ' ');
+  while (!line.empty() && line.back() == ' ') line.pop_back();
+  return line;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -50,16 +63,16 @@ int main(int argc, char** argv) {
     return app.exit(error);
   } catch (const silpose::Error& error) {
     for (const CLI::App* sub : app.get_subcommands()) command = "silpose " + sub->get_name();
-    std::fprintf(stderr, "%s: error: %s\n", command.c_str(), error.what());
+    std::fprintf(stderr, "%s: error: %s\n", command.c_str(), OneLine(error.what()).c_str());
     return 1;
   } catch (const cv::Exception& error) {
-    std::fprintf(stderr, "silpose: OpenCV error: %s\n", error.what());
+    std::fprintf(stderr, "silpose: OpenCV error: %s\n", OneLine(error.what()).c_str());
     return 3;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "silpose: out of memory\n");
     return 3;
   } catch (const std::exception& error) {
-    std::fprintf(stderr, "silpose: internal error: %s\n", error.what());
+    std::fprintf(stderr, "silpose: internal error: %s\n", OneLine(error.what()).c_str());
     return 3;
   }
   return 0;

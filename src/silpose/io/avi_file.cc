@@ -587,7 +587,7 @@ bool AviReader::ReadNext(cv::Mat* frame) {
     try {
       decoded = cv::imdecode(payload_, flags);
     } catch (const cv::Exception& exception) {
-      Fail("cannot decode the frame (" + exception.msg + ")");
+      Fail("cannot decode the frame (" + exception.err + ")");
     }
     if (decoded.empty()) {
       Fail(codec == Codec::kJpeg ? "cannot decode its JPEG data (corrupt)"
@@ -690,7 +690,7 @@ void AviWriter::Write(const cv::Mat& frame) {
           cv::imencode(".jpg", frame, encoded_, {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality});
     }
   } catch (const cv::Exception& exception) {
-    Fail(label + "cannot encode (" + exception.msg + ")");
+    Fail(label + "cannot encode (" + exception.err + ")");
   }
   if (!encoded || encoded_.empty()) Fail(label + "cannot encode");
   const std::uint64_t size = encoded_.size();

@@ -16,7 +16,7 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
       ThrowError(name, ": cannot read as an OpenCV YAML/XML/JSON camera file");
     }
   } catch (const cv::Exception& exception) {
-    ThrowError(name, ": not an OpenCV YAML/XML/JSON camera file (", exception.msg, ")");
+    ThrowError(name, ": not an OpenCV YAML/XML/JSON camera file (", exception.err, ")");
   }
   cv::Mat matrix;
   cv::Mat distortion;
@@ -37,7 +37,7 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
     storage["image_width"] >> width;
     storage["image_height"] >> height;
   } catch (const cv::Exception& exception) {
-    ThrowError(name, ": malformed camera file (", exception.msg, ")");
+    ThrowError(name, ": malformed camera file (", exception.err, ")");
   }
   if (matrix.rows != 3 || matrix.cols != 3 || matrix.channels() != 1) {
     ThrowError(name, ": camera_matrix must be a 3x3 matrix, got ", matrix.rows, "x", matrix.cols);
@@ -94,7 +94,7 @@ void WriteCameraFile(const std::filesystem::path& path, const PinholeCamera& cam
       distortion.at<double>(0, i) = camera.distortion[static_cast<size_t>(i)];
     storage << "distortion_coefficients" << distortion;
   } catch (const cv::Exception& exception) {
-    ThrowError(path.string(), ": cannot write camera file (", exception.msg, ")");
+    ThrowError(path.string(), ": cannot write camera file (", exception.err, ")");
   }
 }
 

@@ -50,7 +50,7 @@ cv::Mat DecodeImageFile(const std::filesystem::path& path, FrameColor color, int
   try {
     image = cv::imread(path.string(), flags);
   } catch (const cv::Exception& exception) {
-    ThrowError(path.string(), ": frame ", frame, ": cannot decode image (", exception.msg, ")");
+    ThrowError(path.string(), ": frame ", frame, ": cannot decode image (", exception.err, ")");
   }
   if (image.empty()) {
     ThrowError(path.string(), ": frame ", frame,
@@ -68,7 +68,7 @@ class OpenCvVideoSource final : public FrameSource {
     try {
       capture_.open(path.string(), cv::CAP_ANY);
     } catch (const cv::Exception& exception) {
-      ThrowError(path.string(), ": cannot open video (", exception.msg, ")");
+      ThrowError(path.string(), ": cannot open video (", exception.err, ")");
     }
     if (!capture_.isOpened()) ThrowError(path.string(), ": not a video OpenCV videoio can read");
     const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
@@ -81,7 +81,7 @@ class OpenCvVideoSource final : public FrameSource {
     try {
       capture_.open(camera, cv::CAP_ANY);
     } catch (const cv::Exception& exception) {
-      ThrowError("camera ", camera, ": cannot open (", exception.msg, ")");
+      ThrowError("camera ", camera, ": cannot open (", exception.err, ")");
     }
     if (!capture_.isOpened()) ThrowError("camera ", camera, ": cannot open (no such camera?)");
     Init(label_);
@@ -98,7 +98,7 @@ class OpenCvVideoSource final : public FrameSource {
     try {
       if (!capture_.read(image) || image.empty()) return false;
     } catch (const cv::Exception& exception) {
-      ThrowError(label_, ": frame ", frame_index() + 1, ": cannot decode (", exception.msg, ")");
+      ThrowError(label_, ": frame ", frame_index() + 1, ": cannot decode (", exception.err, ")");
     }
     *frame = image;
     return true;

@@ -17,7 +17,7 @@ cv::Mat ReadMask(const std::filesystem::path& path) {
   try {
     image = cv::imread(name, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& exception) {
-    ThrowError(name, ": cannot decode image (", exception.msg, ")");
+    ThrowError(name, ": cannot decode image (", exception.err, ")");
   }
   if (image.empty()) ThrowError(name, ": not an image OpenCV can read (or a corrupt one)");
   cv::Mat mask;
@@ -37,7 +37,7 @@ void WriteMask(const std::filesystem::path& path, const cv::Mat& mask) {
   try {
     written = cv::imwrite(path.string(), mask);
   } catch (const cv::Exception& exception) {
-    ThrowError(path.string(), ": cannot write image (", exception.msg, ")");
+    ThrowError(path.string(), ": cannot write image (", exception.err, ")");
   }
   if (!written)
     ThrowError(path.string(), ": cannot write image (unknown extension or no permission)");

@@ -1,0 +1,204 @@
+// `silpose track` end to end on videos and image folders: the outputs (POSES.csv with 6-DOF
+// poses, JSON Lines, BOP19, overlay video, plots) and the faults a user meets (a truncated video,
+// an unreadable frame, a wrong calibration file, a camera that does not exist): one clear message,
+// a non-zero exit code, and what was tracked before the fault kept on disk.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_runner.h"
+
+namespace silpose {
+namespace {
+
+std::vector<std::string> ReadLines(const std::string& path) {
+  std::ifstream file(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(file, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> Split(const std::string& line, char separator = ',') {
+  std::vector<std::string> fields;
+  std::stringstream stream(line);
+  for (std::string field; std::getline(stream, field, separator);) fields.push_back(field);
+  if (!line.empty() && line.back() == separator) fields.emplace_back();
+  return fields;
+}
+
+class CliTrackTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("silpose_cli_track_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(directory_);
+    const std::string models(SILPOSE_SAMPLE_MODELS_DIR);
+    database_ = Path("small.db");
+    CommandResult run = Silpose("build-db " + models + "/bunny.obj " + models + "/hand.obj -o " +
+                                database_ + " --views 300 --threads 2");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    // 40 colour frames of the hand, then 20 of the bunny, with a video and the empty scene.
+    sequence_ = Path("sequence");
+    run = Silpose("synth " + models + "/hand.obj " + models + "/bunny.obj -o " + sequence_ +
+                  " --trajectory walk --frames 60 --switch-at 40 --colour --video "
+                  "--camera-noise 2 --threads 2");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+  }
+  static void TearDownTestSuite() { std::filesystem::remove_all(directory_); }
+
+  static std::string Path(const std::string& name) { return (directory_ / name).string(); }
+
+  static inline std::filesystem::path directory_;
+  static inline std::string database_;
+  static inline std::string sequence_;
+};
+
+TEST_F(CliTrackTest, ColourVideoWithBackgroundSubtractionGivesPosesAndAllOutputs) {
+  const std::string poses = Path("poses.csv");
+  const CommandResult run =
+      Silpose("track -d " + database_ + " " + sequence_ + "/video.avi --camera " + sequence_ +
+              "/camera.yml --segment bgsub --background " + sequence_ + "/background.png -o " +
+              poses + " --json " + Path("poses.jsonl") + " --bop " + Path("bop.csv") +
+              " --model-unit-mm 1000 --overlay " + Path("overlay.avi") + " --plots " +
+              Path("plots") + " --ground-truth " + sequence_ + "/groundtruth.csv --seed 2");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err, "");
+  EXPECT_NE(run.out.find("right object"), std::string::npos) << run.out;
+
+  const std::vector<std::string> rows = ReadLines(poses);
+  ASSERT_EQ(rows.size(), 61u);
+  EXPECT_EQ(rows[0].substr(0, 40), "frame,object,score,probability,view_x,vi");
+  ASSERT_EQ(Split(rows[0]).size(), 24u);
+  int right = 0, with_pose = 0;
+  for (size_t r = 1; r < rows.size(); ++r) {
+    const std::vector<std::string> fields = Split(rows[r]);
+    ASSERT_EQ(fields.size(), 24u) << rows[r];
+    const int frame = std::stoi(fields[0]);
+    EXPECT_EQ(frame, static_cast<int>(r) - 1);
+    const std::string truth = frame < 40 ? "hand" : "bunny";
+    // Settled frames: 10 after the start and after the switch.
+    if ((frame >= 10 && frame < 40) || frame >= 50) right += fields[1] == truth;
+    with_pose += !fields[23].empty();
+  }
+  EXPECT_GE(right, 38);  // of 40 settled frames
+  EXPECT_GE(with_pose, 55);
+
+  const std::vector<std::string> json = ReadLines(Path("poses.jsonl"));
+  ASSERT_EQ(json.size(), 60u);
+  const nlohmann::json last = nlohmann::json::parse(json.back());
+  EXPECT_EQ(last["frame"], 59);
+  EXPECT_EQ(last["object"], "bunny");
+  ASSERT_TRUE(last["pose"].is_object());
+  EXPECT_EQ(last["pose"]["R"].size(), 3u);
+
+  // BOP: t in millimetres = model units x 1000; the camera is 3-6 radii of a unit-size model away.
+  const std::vector<std::string> bop = ReadLines(Path("bop.csv"));
+  ASSERT_GE(bop.size(), 50u);
+  EXPECT_EQ(bop[0], "scene_id,im_id,obj_id,score,R,t,time");
+  const std::vector<std::string> fields = Split(bop.back());
+  ASSERT_EQ(fields.size(), 7u);
+  EXPECT_EQ(Split(fields[4], ' ').size(), 9u);
+  const std::vector<std::string> t = Split(fields[5], ' ');
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_GT(std::stod(t[2]), 100.0);  // mm: the mesh units are ~0.1-1
+
+  EXPECT_GT(std::filesystem::file_size(Path("overlay.avi")), 60u * 5000u);
+  for (const char* plot : {"trajectory.svg", "trajectory.png", "error.svg", "error.png"}) {
+    EXPECT_TRUE(std::filesystem::is_regular_file(directory_ / "plots" / plot)) << plot;
+  }
+}
+
+TEST_F(CliTrackTest, TruncatedVideoKeepsTheFramesBeforeTheCut) {
+  const std::string cut = Path("cut.avi");
+  std::filesystem::copy_file(sequence_ + "/video.avi", cut,
+                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::resize_file(cut, std::filesystem::file_size(cut) / 2);
+  const std::string poses = Path("cut.csv");
+  const CommandResult run =
+      Silpose("track -d " + database_ + " " + cut + " --camera " + sequence_ + "/camera.yml -o " +
+              poses + " --segment bgsub --background " + sequence_ + "/background.png");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find("cut.avi"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("stopped after"), std::string::npos) << run.err;
+  const size_t rows = ReadLines(poses).size();
+  EXPECT_GE(rows, 20u);  // about half of the 60 frames, plus the header
+  EXPECT_LT(rows, 40u);
+}
+
+TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {
+  const std::filesystem::path folder = directory_ / "broken";
+  std::filesystem::create_directories(folder);
+  for (int k = 0; k < 15; ++k) {
+    char name[16];
+    std::snprintf(name, sizeof(name), "%06d.png", k);
+    std::filesystem::copy_file(std::filesystem::path(sequence_) / "masks" / name, folder / name,
+                               std::filesystem::copy_options::overwrite_existing);
+  }
+  std::ofstream(folder / "000010.png", std::ios::trunc) << "not a png";
+  const std::string poses = Path("broken.csv");
+  const CommandResult run = Silpose("track -d " + database_ + " " + folder.string() + " --camera " +
+                                    sequence_ + "/camera.yml -o " + poses);
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find("000010.png"), std::string::npos) << run.err;
+  EXPECT_EQ(ReadLines(poses).size(), 11u);  // header + frames 0..9
+}
+
+TEST_F(CliTrackTest, WrongCalibrationFileIsRefused) {
+  // A calibration of another camera size.
+  std::ofstream(Path("small_camera.yml"))
+      << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\ncamera_matrix: !!opencv-matrix\n"
+         "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 300., 0., 159.5, 0., 300., 119.5, 0., 0., "
+         "1. ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+         "   data: [ 0., 0., 0., 0., 0. ]\n";
+  CommandResult run = Silpose("track -d " + database_ + " " + sequence_ + " --camera " +
+                              Path("small_camera.yml") + " -o " + Path("x.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find("small_camera.yml"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("320x240"), std::string::npos) << run.err;
+  // Not a calibration file at all.
+  std::ofstream(Path("garbage.yml")) << "this: is\nnot: [a camera\n";
+  run = Silpose("track -d " + database_ + " " + sequence_ + " --camera " + Path("garbage.yml") +
+                " -o " + Path("x.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find("garbage.yml"), std::string::npos) << run.err;
+}
+
+TEST_F(CliTrackTest, CameraThatDoesNotExistIsAClearError) {
+  const CommandResult run = Silpose("track -d " + database_ + " 97 -o " + Path("cam.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find("97"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("camera"), std::string::npos) << run.err;
+}
+
+TEST_F(CliTrackTest, WithoutACameraFileADefaultIsUsedWithAWarning) {
+  const CommandResult run = Silpose("track -d " + database_ + " " + sequence_ + "/masks -o " +
+                                    Path("default.csv") + " --max-frames 5");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("warning: no --camera"), std::string::npos) << run.err;
+  EXPECT_EQ(ReadLines(Path("default.csv")).size(), 6u);
+}
+
+TEST_F(CliTrackTest, BadSegmentationOptionsAreRefused) {
+  for (const char* options :
+       {"--segment grabcut", "--segment bgsub --bg-method foo", "--hsv-range 1,2,3",
+        "--segment bgsub --background /nonexistent/bg.png", "--downscale 0"}) {
+    const CommandResult run = Silpose("track -d " + database_ + " " + sequence_ + " -o " +
+                                      Path("bad.csv") + " " + options);
+    EXPECT_NE(run.exit_code, 0) << options;
+    EXPECT_EQ(Lines(run.err), 1) << options << ": " << run.err;
+  }
+}
+
+}  // namespace
+}  // namespace silpose
