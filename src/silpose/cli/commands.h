@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "silpose/track/tracker.h"
+
 namespace silpose::cli {
 
 void AddBuildDbCommand(CLI::App& app);
@@ -17,6 +19,38 @@ void AddTrackCommand(CLI::App& app);
 void AddDemoCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
+
+/// What `silpose track` does, as options (also run by `silpose demo`): read INPUT, track it with
+/// `tracker` against the database file, write POSES.csv and the optional outputs.
+struct TrackJob {
+  std::string database;
+  std::string input;
+  std::string output;
+  std::string camera;
+  std::string json;
+  std::string bop;
+  std::string overlay;
+  std::string plots;
+  std::string ground_truth;
+  std::vector<std::string> models;
+  int max_frames = 0;
+  // Segmentation.
+  std::string segment = "mask";
+  std::string background_method = "mog2";
+  std::string threshold_method = "otsu";
+  std::string object_polarity = "darker";
+  std::string component = "largest";
+  std::string hsv_range;
+  // BOP.
+  int bop_scene = 1;
+  std::vector<int> bop_object_ids;
+  double model_unit_mm = 1.0;
+  TrackerOptions tracker;
+};
+
+/// Runs a track job (see track_command.cc). Throws silpose::Error; on a fault while reading the
+/// input, what was tracked before it is written out first.
+void RunTrackJob(const TrackJob& job);
 
 /// The project's sample models: `override_dir` if given, else the source tree's data/models, else
 /// the installed share/silpose/models. Throws silpose::Error if none is found.

@@ -22,32 +22,6 @@
 namespace silpose::cli {
 namespace {
 
-struct TrackArguments {
-  std::string database;
-  std::string input;
-  std::string output;
-  std::string camera;
-  std::string json;
-  std::string bop;
-  std::string overlay;
-  std::string plots;
-  std::string ground_truth;
-  std::vector<std::string> models;
-  int max_frames = 0;
-  // Segmentation.
-  std::string segment = "mask";
-  std::string background_method = "mog2";
-  std::string threshold_method = "otsu";
-  std::string object_polarity = "darker";
-  std::string component = "largest";
-  std::string hsv_range;
-  // BOP.
-  int bop_scene = 1;
-  std::vector<int> bop_object_ids;
-  double model_unit_mm = 1.0;
-  TrackerOptions tracker;
-};
-
 // "H,S,V,H,S,V" -> lower and upper HSV bounds.
 void ParseHsvRange(const std::string& text, SegmenterOptions* options) {
   std::vector<double> values;
@@ -73,7 +47,7 @@ void ParseHsvRange(const std::string& text, SegmenterOptions* options) {
 }
 
 // The camera: --camera, else INPUT/camera.yml for a sequence folder, else a default (warned).
-PinholeCamera ChooseCamera(const TrackArguments& arguments, cv::Size frame_size) {
+PinholeCamera ChooseCamera(const TrackJob& arguments, cv::Size frame_size) {
   std::filesystem::path path = arguments.camera;
   std::error_code error;
   if (path.empty() && std::filesystem::is_directory(arguments.input, error) &&
@@ -100,7 +74,7 @@ PinholeCamera ChooseCamera(const TrackArguments& arguments, cv::Size frame_size)
 }
 
 // Ground truth: --ground-truth, else INPUT/groundtruth.csv for a sequence folder.
-std::vector<GroundTruthFrame> ChooseGroundTruth(const TrackArguments& arguments) {
+std::vector<GroundTruthFrame> ChooseGroundTruth(const TrackJob& arguments) {
   std::filesystem::path path = arguments.ground_truth;
   std::error_code error;
   if (path.empty() && std::filesystem::is_directory(arguments.input, error) &&
@@ -115,7 +89,7 @@ std::vector<GroundTruthFrame> ChooseGroundTruth(const TrackArguments& arguments)
 // The meshes drawn in the overlay, by model index: --models (files or folders, matched to the
 // database's models by file stem), else the paths the database was built from. A model whose mesh
 // cannot be read is drawn without its outline (one warning).
-std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackArguments& arguments,
+std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackJob& arguments,
                                                        const ViewDatabase& database) {
   std::map<std::string, std::filesystem::path> by_name;
   for (const std::string& item : arguments.models) {
@@ -158,7 +132,7 @@ struct Outputs {
   }
 };
 
-void WritePlots(const TrackArguments& arguments, const TrackReport& report) {
+void WritePlots(const TrackJob& arguments, const TrackReport& report) {
   if (arguments.plots.empty() || report.num_frames() == 0) return;
   const std::filesystem::path folder = arguments.plots;
   std::error_code error;
@@ -175,7 +149,7 @@ void WritePlots(const TrackArguments& arguments, const TrackReport& report) {
   }
 }
 
-void PrintSummary(const TrackArguments& arguments, const TrackReport& report, int measured,
+void PrintSummary(const TrackJob& arguments, const TrackReport& report, int measured,
                   double total_ms, double decode_ms) {
   const int frames = report.num_frames();
   if (frames == 0) return;
@@ -200,7 +174,9 @@ void PrintSummary(const TrackArguments& arguments, const TrackReport& report, in
   }
 }
 
-void RunTrack(const TrackArguments& arguments) {
+}  // namespace
+
+void RunTrackJob(const TrackJob& arguments) {
   TrackerOptions options = arguments.tracker;
   SegmenterOptions& segment = options.segmentation;
   segment.kind = ParseSegmenterKind(arguments.segment);
@@ -354,10 +330,8 @@ void RunTrack(const TrackArguments& arguments) {
   std::printf("\n");
 }
 
-}  // namespace
-
 void AddTrackCommand(CLI::App& app) {
-  auto arguments = std::make_shared<TrackArguments>();
+  auto arguments = std::make_shared<TrackJob>();
   CLI::App* command = app.add_subcommand(
       "track",
       "Identify the object and follow its 6-DOF pose through a video, an image folder or a camera "
@@ -450,7 +424,7 @@ void AddTrackCommand(CLI::App& app) {
       ->add_option("--downscale", segment.downscale,
                    "bgsub/threshold: segment a frame shrunk by this factor (faster)")
       ->capture_default_str();
-  command->callback([arguments] { RunTrack(*arguments); });
+  command->callback([arguments] { RunTrackJob(*arguments); });
 }
 
 }  // namespace silpose::cli
