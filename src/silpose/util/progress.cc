@@ -8,7 +8,7 @@ namespace silpose {
 
 ProgressBar::ProgressBar(std::string label, int64_t total, bool enabled)
     : label_(std::move(label)),
-      total_(total > 0 ? total : 1),
+      total_(total),
       enabled_(enabled),
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_ - std::chrono::seconds(1)) {}
@@ -39,6 +39,17 @@ void ProgressBar::Finish() {
 
 void ProgressBar::Draw(bool final_draw) {
   constexpr int kWidth = 30;
+  if (total_ <= 0) {
+    // Unknown amount of work (a camera, an unindexed video): count and rate only.
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const int64_t count = done_.load();
+    std::fprintf(stderr, "\r%s %lld  %.1fs  %.1f/s   ", label_.c_str(),
+                 static_cast<long long>(count), seconds,
+                 seconds > 0.0 ? static_cast<double>(count) / seconds : 0.0);
+    std::fflush(stderr);
+    return;
+  }
   const int64_t done = final_draw ? done_.load() : std::min(done_.load(), total_);
   const double fraction = std::min(1.0, static_cast<double>(done) / static_cast<double>(total_));
   const int filled = static_cast<int>(fraction * kWidth);

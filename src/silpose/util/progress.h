@@ -12,7 +12,8 @@ namespace silpose {
 
 class ProgressBar {
  public:
-  /// `label` is shown before the bar; `total` is the number of work items.
+  /// `label` is shown before the bar; `total` is the number of work items (<= 0: unknown, e.g. a
+  /// live camera; then the count and the rate are shown instead of a bar).
   /// `enabled`: draw at all (default: only if stderr is a terminal).
   ProgressBar(std::string label, int64_t total, bool enabled = StderrIsTerminal());
   ~ProgressBar();
