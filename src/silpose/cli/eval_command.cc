@@ -5,10 +5,10 @@
 #include <sstream>
 
 #include "silpose/cli/commands.h"
-#include "silpose/database/database_builder.h"
+#include "silpose/eval/evaluation_database.h"
 #include "silpose/eval/self_match.h"
+#include "silpose/eval/tracking_experiment.h"
 #include "silpose/util/error.h"
-#include "silpose/util/hash.h"
 #include "silpose/util/progress.h"
 
 namespace silpose::cli {
@@ -56,26 +56,10 @@ void RunSelfMatchEval(const SelfMatchArguments& arguments) {
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
 
-  ViewDatabase database;
-  if (!arguments.database.empty()) {
-    database = ViewDatabase::Read(arguments.database);
-    if (database.models.size() != paths.size()) {
-      ThrowError(arguments.database, ": has ", database.models.size(), " models, ", paths.size(),
-                 " meshes given");
-    }
-    for (size_t m = 0; m < paths.size(); ++m) {
-      if (HashFile(paths[m]) != database.models[m].mesh_hash) {
-        ThrowError(paths[m].string(), ": differs from the mesh the database '", arguments.database,
-                   "' was built from (model ", database.models[m].name, ")");
-      }
-    }
-  } else {
-    DatabaseBuildOptions build;
-    build.parameters.view_sphere.num_views = arguments.views;
-    build.num_threads = options.num_threads;
-    build.show_progress = true;
-    database = BuildViewDatabase(paths, build);
-  }
+  const ViewDatabase database = EvaluationDatabase(paths, {.database_path = arguments.database,
+                                                           .num_views = arguments.views,
+                                                           .num_threads = options.num_threads,
+                                                           .show_progress = true});
   std::vector<TriangleMesh> meshes;
   for (const auto& path : paths) meshes.push_back(LoadMesh(path));
 
@@ -140,6 +124,196 @@ void RunSelfMatchEval(const SelfMatchArguments& arguments) {
   }
 }
 
+struct TrackingArguments {
+  std::vector<std::string> models;
+  std::string database;
+  std::string output;
+  std::string flown;
+  std::string particles = "10,20,30,40,50,60,70,80,90,100";
+  std::string per_frame;
+  int frames = 360;
+  int repeats = 5;
+  int views = 1000;
+  bool no_brute_force = false;
+  bool quick = false;
+  int num_threads = 1;
+  // Set by the parser: which options were given (--quick does not override them).
+  bool frames_given = false, repeats_given = false, particles_given = false, flown_given = false;
+};
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  for (std::string item; std::getline(stream, item, ',');) {
+    if (!item.empty()) items.push_back(item);
+  }
+  return items;
+}
+
+std::vector<int> ParseCounts(const std::string& text) {
+  std::vector<int> counts;
+  for (const std::string& item : SplitList(text)) {
+    try {
+      size_t used = 0;
+      counts.push_back(std::stoi(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      ThrowError("--particles must be whole numbers separated by commas, got '", text, "'");
+    }
+  }
+  if (counts.empty()) ThrowError("--particles needs at least one count");
+  return counts;
+}
+
+std::string Joined(const std::vector<std::string>& items) {
+  std::string text;
+  for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
+  return text;
+}
+
+void RunTrackingEval(const TrackingArguments& arguments) {
+  std::vector<std::filesystem::path> paths(arguments.models.begin(), arguments.models.end());
+  TrackingExperimentOptions options;
+  options.frames = arguments.frames;
+  options.repeats = arguments.repeats;
+  options.particle_counts = ParseCounts(arguments.particles);
+  options.flown_models = SplitList(arguments.flown);
+  options.brute_force = !arguments.no_brute_force;
+  options.num_threads = arguments.num_threads;
+  if (arguments.quick) {
+    // The sample models, 2 flown, 60 frames, 20 and 60 particles, 2 seeds (options given
+    // explicitly win).
+    if (paths.empty()) paths = SampleModels();
+    if (!arguments.flown_given) options.num_flown = 2;
+    if (!arguments.frames_given) options.frames = 60;
+    if (!arguments.particles_given) options.particle_counts = {20, 60};
+    if (!arguments.repeats_given) options.repeats = 2;
+  }
+  if (paths.empty()) paths = DefaultEvalModels();
+  std::string problem;
+  if (!options.Check(&problem)) ThrowError(problem);
+  std::error_code error;
+  std::filesystem::create_directories(arguments.output, error);
+  if (error || !std::filesystem::is_directory(arguments.output)) {
+    ThrowError(arguments.output, ": cannot create the output folder",
+               error ? ": " + error.message() : std::string());
+  }
+  const std::filesystem::path folder = arguments.output;
+
+  const ViewDatabase database = EvaluationDatabase(paths, {.database_path = arguments.database,
+                                                           .num_views = arguments.views,
+                                                           .num_threads = arguments.num_threads,
+                                                           .show_progress = true});
+  std::vector<TriangleMesh> meshes;
+  for (const auto& path : paths) meshes.push_back(LoadMesh(path));
+  const std::vector<int> flown = FlownModelIndices(database, options);
+
+  ProgressBar progress("tracking", TrackingRunCount(options, static_cast<int>(flown.size())));
+  const TrackingExperimentResult result = RunTrackingExperiment(
+      database, meshes, options, [&progress](int done) { progress.Advance(done); });
+  progress.Finish();
+
+  WriteTrackingTable(folder / "tracking.csv", result);
+  WriteTrackingRuns(folder / "tracking_runs.csv", result);
+  if (!arguments.per_frame.empty()) WriteTrackingFrames(arguments.per_frame, result, database);
+  const Figure figure = TrackingFigure(result);
+  figure.WriteSvg(folder / "tracking.svg");
+  figure.WritePng(folder / "tracking.png");
+
+  std::printf(
+      "tracking (paper 5.1): %zu of %d models flown (%s), %d frames each, orbit at %g deg per "
+      "frame; database %d views per model; %zu particle counts x %d seeds; adaptive off\n",
+      result.flown_models.size(), result.num_models, Joined(result.flown_models).c_str(),
+      result.frames_per_flight, options.orbit.step_deg, database.num_views(),
+      options.particle_counts.size(), options.repeats);
+  std::printf("%-16s %9s %5s %7s %10s %9s %8s %9s\n", "method", "particles", "runs", "frames",
+              "pose_error", "std", "object%", "ms/frame");
+  for (const TrackingRow& row : result.rows) {
+    const TrackingStats& s = row.stats;
+    std::printf("%-16s %9s %5d %7d %10.4f %9.4f %8.2f %9.3f\n", row.method.c_str(),
+                row.particles > 0 ? std::to_string(row.particles).c_str() : "-", s.runs, s.frames,
+                s.pose_error_mean, s.pose_error_std, s.right_object_percent(), s.ms_per_frame_mean);
+  }
+  std::printf(
+      "pose error: distance between estimated and true unit view directions, every frame "
+      "(wrong-object frames included)\n");
+  std::printf("%-34s %18s %18s\n", "paper comparison", "ours", "paper");
+  if (const TrackingRow* brute = result.BruteForce()) {
+    std::printf("%-34s %10.3f +- %5.3f %10.3f +- %5.3f\n", "brute force: pose error",
+                brute->stats.pose_error_mean, brute->stats.pose_error_std,
+                PaperTrackingFigures::kBruteForcePoseErrorMean,
+                PaperTrackingFigures::kBruteForcePoseErrorStd);
+    std::printf("%-34s %16.1f %% %16.1f %%\n", "brute force: right object",
+                brute->stats.right_object_percent(),
+                PaperTrackingFigures::kBruteForceRightObjectPercent);
+  }
+  if (const TrackingRow* at60 = result.Filter(60)) {
+    std::printf("%-34s %16.1f %% %16.1f %%\n", "filter, 60 particles: right object",
+                at60->stats.right_object_percent(),
+                PaperTrackingFigures::kFilterRightObjectPercentAt60);
+  }
+  if (result.num_threads == 1) {
+    std::printf("times: one thread, signature extraction included\n");
+  } else {
+    std::printf(
+        "times: %d runs in parallel on %d threads (per-frame times are inflated by sharing the "
+        "cores; use --threads 1 for single-thread times), signature extraction included\n",
+        result.num_threads, result.num_threads);
+  }
+  std::printf(
+      "%.1f s; wrote %s, %s, %s, %s\n", result.seconds, (folder / "tracking.csv").string().c_str(),
+      (folder / "tracking_runs.csv").string().c_str(), (folder / "tracking.svg").string().c_str(),
+      (folder / "tracking.png").string().c_str());
+}
+
+void AddTrackingCommand(CLI::App* eval) {
+  auto arguments = std::make_shared<TrackingArguments>();
+  CLI::App* command = eval->add_subcommand(
+      "tracking",
+      "The paper's experiment 5.1: fly around some models at 1 degree per frame and track each "
+      "flight with 10..100 particles per object (5 seeds each, adaptive count off), against "
+      "brute-force matching of every frame. Writes OUTDIR/tracking.csv (one row per particle "
+      "count and a brute-force row), tracking_runs.csv, tracking.svg and tracking.png.");
+  command->add_option("models", arguments->models,
+                      "Meshes of the database (default: ../shared/models when present, else the "
+                      "sample models)");
+  command->add_option("-d,--database", arguments->database,
+                      "Use this database (built from the same meshes, in order) instead of "
+                      "building one");
+  command->add_option("-o,--output", arguments->output, "Folder for the tables and the figure")
+      ->required();
+  command->add_option("--views", arguments->views, "Viewpoints per model when building")
+      ->capture_default_str();
+  command->add_option("--flown", arguments->flown,
+                      "Models to fly around, comma-separated names (default: 5 spread over the "
+                      "list)");
+  command->add_option("--frames", arguments->frames, "Frames per flight (1 degree each)")
+      ->capture_default_str();
+  command
+      ->add_option("--particles", arguments->particles,
+                   "Particles per object, comma-separated counts")
+      ->capture_default_str();
+  command->add_option("--repeats", arguments->repeats, "Runs per count and model (seeds 1..N)")
+      ->capture_default_str();
+  command->add_flag("--no-brute-force", arguments->no_brute_force, "Skip the brute-force baseline");
+  command
+      ->add_option("--threads", arguments->num_threads,
+                   "Runs in parallel (0 = all cores); times are single-thread times only with 1")
+      ->capture_default_str();
+  command->add_option("--per-frame", arguments->per_frame,
+                      "Also write every frame of every run to this CSV");
+  command->add_flag("--quick", arguments->quick,
+                    "Sample models, 2 flown, 60 frames, 20 and 60 particles, 2 seeds (seconds)");
+  command->callback([command, arguments] {
+    TrackingArguments given = *arguments;
+    given.frames_given = command->count("--frames") > 0;
+    given.repeats_given = command->count("--repeats") > 0;
+    given.particles_given = command->count("--particles") > 0;
+    given.flown_given = command->count("--flown") > 0;
+    RunTrackingEval(given);
+  });
+}
+
 }  // namespace
 
 void AddEvalCommand(CLI::App& app) {
@@ -174,6 +348,7 @@ void AddEvalCommand(CLI::App& app) {
   self_match->add_option("--csv", arguments->csv, "Write the per-model table as CSV");
   self_match->add_option("--failures", arguments->failures_csv, "Write every failed query as CSV");
   self_match->callback([arguments] { RunSelfMatchEval(*arguments); });
+  AddTrackingCommand(eval);
 }
 
 }  // namespace silpose::cli
