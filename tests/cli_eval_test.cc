@@ -143,5 +143,34 @@ TEST_F(CliEvalTest, TrackingRefusesBadArgumentsWithOneLine) {
   EXPECT_NE(help.out.find("--particles"), std::string::npos);
 }
 
+TEST_F(CliEvalTest, VideoQuickTracksColourVideosWithBackgroundSubtraction) {
+  const std::string out = Path("video");
+  const CommandResult run = Silpose("eval video --quick --threads 2 -o " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("targets:"), std::string::npos) << run.out;
+  std::ifstream table(out + "/video.csv");
+  std::string line;
+  std::getline(table, line);
+  EXPECT_EQ(line.substr(0, 46), "model,frames,counted,right_object_percent,rota");
+  int rows = 0;
+  while (std::getline(table, line)) {
+    std::stringstream fields(line);
+    std::vector<std::string> values;
+    for (std::string value; std::getline(fields, value, ',');) values.push_back(value);
+    ASSERT_EQ(values.size(), 11u) << line;
+    ++rows;
+    EXPECT_EQ(values[1], "40");
+    // A coarse database (300 views, ~11 deg apart): the right object after 10 frames, rotation
+    // within the view spacing plus a few degrees, distance within a few percent.
+    EXPECT_GE(std::stod(values[3]), 95.0) << line;
+    EXPECT_LT(std::stod(values[4]), 15.0) << line;
+    EXPECT_LT(std::stod(values[6]), 6.0) << line;
+  }
+  EXPECT_EQ(rows, 2);
+  for (const char* file : {"bunny/video.avi", "bunny/POSES.csv", "hand/error.png"}) {
+    EXPECT_TRUE(std::filesystem::is_regular_file(out + "/" + file)) << file;
+  }
+}
+
 }  // namespace
 }  // namespace silpose

@@ -19,6 +19,12 @@ void AddTrackCommand(CLI::App& app);
 void AddDemoCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
+/// `silpose eval video` (eval_video_command.cc), added under `eval`.
+void AddEvalVideoCommand(CLI::App* eval);
+
+/// The models an evaluation uses by default: ../shared/models (the reference set) when run from a
+/// checkout beside it, else the sample models.
+std::vector<std::filesystem::path> DefaultEvalModels();
 
 /// What `silpose track` does, as options (also run by `silpose demo`): read INPUT, track it with
 /// `tracker` against the database file, write POSES.csv and the optional outputs.

@@ -24,6 +24,8 @@ struct SelfMatchArguments {
   SelfMatchOptions options;
 };
 
+}  // namespace
+
 std::vector<std::filesystem::path> DefaultEvalModels() {
   // The shared reference set when run from a checkout beside it, else the sample models.
   for (const char* candidate : {"../shared/models", "../../shared/models"}) {
@@ -35,6 +37,8 @@ std::vector<std::filesystem::path> DefaultEvalModels() {
   }
   return SampleModels();
 }
+
+namespace {
 
 double Percent(int part, int whole) { return whole > 0 ? 100.0 * part / whole : 0.0; }
 
@@ -285,8 +289,8 @@ void AddTrackingCommand(CLI::App* eval) {
   command->add_option("--views", arguments->views, "Viewpoints per model when building")
       ->capture_default_str();
   command->add_option("--flown", arguments->flown,
-                      "Models to fly around, comma-separated names (default: 5 spread over the "
-                      "list)");
+                      "Models to fly around, comma-separated names (default: bunny, cow, dino, "
+                      "elephant, rotor when present, else 5 spread over the list)");
   command->add_option("--frames", arguments->frames, "Frames per flight (1 degree each)")
       ->capture_default_str();
   command
@@ -349,6 +353,7 @@ void AddEvalCommand(CLI::App& app) {
   self_match->add_option("--failures", arguments->failures_csv, "Write every failed query as CSV");
   self_match->callback([arguments] { RunSelfMatchEval(*arguments); });
   AddTrackingCommand(eval);
+  AddEvalVideoCommand(eval);
 }
 
 }  // namespace silpose::cli

@@ -221,6 +221,15 @@ std::vector<int> SpreadModelIndices(int num_models, int count) {
 std::vector<int> FlownModelIndices(const ViewDatabase& database,
                                    const TrackingExperimentOptions& options) {
   if (options.flown_models.empty()) {
+    std::vector<int> preferred;
+    for (const std::string& name : kDefaultFlownModels) {
+      const int index = database.FindModel(name);
+      if (index >= 0) preferred.push_back(index);
+    }
+    if (options.num_flown == static_cast<int>(kDefaultFlownModels.size()) &&
+        preferred.size() == kDefaultFlownModels.size()) {
+      return preferred;
+    }
     return SpreadModelIndices(static_cast<int>(database.models.size()), options.num_flown);
   }
   std::vector<int> indices;

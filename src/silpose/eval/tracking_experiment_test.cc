@@ -194,11 +194,15 @@ TEST_F(TrackingExperimentTest, SameSeedGivesTheSameRunsAndAnotherSeedOthers) {
   options.brute_force = false;
   options.particle_counts = {20};
   const TrackingExperimentResult again = RunTrackingExperiment(*database_, *meshes_, options);
-  options.first_seed = 7;
-  const TrackingExperimentResult other = RunTrackingExperiment(*database_, *meshes_, options);
-  options.first_seed = 1;
   options.num_threads = 2;
   const TrackingExperimentResult threaded = RunTrackingExperiment(*database_, *meshes_, options);
+  // Another seed gives other runs. (With the guided start, runs on this easy 3-model database
+  // converge to the same views whatever the seed; without it the random start shows.)
+  options.num_threads = 1;
+  options.filter.guided_start = false;
+  const TrackingExperimentResult unguided = RunTrackingExperiment(*database_, *meshes_, options);
+  options.first_seed = 7;
+  const TrackingExperimentResult other = RunTrackingExperiment(*database_, *meshes_, options);
   // The original runs of the hand at 20 particles, seeds 1 and 2.
   std::vector<const TrackingRun*> original;
   for (const TrackingRun& run : result_->runs) {
@@ -217,7 +221,7 @@ TEST_F(TrackingExperimentTest, SameSeedGivesTheSameRunsAndAnotherSeedOthers) {
         ASSERT_EQ(same->view, original[i]->frames[k].view) << k;
         ASSERT_EQ(same->pose_error, original[i]->frames[k].pose_error) << k;
       }
-      differing_frames += other.runs[i].frames[k].view != original[i]->frames[k].view;
+      differing_frames += other.runs[i].frames[k].view != unguided.runs[i].frames[k].view;
     }
   }
   EXPECT_GT(differing_frames, 0);

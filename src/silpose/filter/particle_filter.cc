@@ -167,7 +167,23 @@ FilterEstimate ParticleFilter::Predict() { return Advance(nullptr); }
 
 FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   if (frame_ > 0) PredictParticles();
-  if (frame != nullptr) MeasureParticles(*frame);
+  if (frame != nullptr && !measured_once_ && options_.guided_start && frame->has_variance) {
+    // Guided start: every object's first particle at the object's best view for this frame.
+    std::vector<uint8_t> placed(static_cast<size_t>(num_objects_), 0);
+    for (Particle& p : particles_) {
+      if (placed[static_cast<size_t>(p.object)]) continue;
+      placed[static_cast<size_t>(p.object)] = 1;
+      const CandidateView candidate = BestViewOfObject(*frame, p.object);
+      if (candidate.view < 0) continue;
+      p.view = candidate.view;
+      p.roll_deg = candidate.roll_deg;
+      p.roll_known = true;
+    }
+  }
+  if (frame != nullptr) {
+    MeasureParticles(*frame);
+    measured_once_ = true;
+  }
 
   FilterEstimate estimate;
   estimate.frame = frame_;
