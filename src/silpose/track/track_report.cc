@@ -62,6 +62,9 @@ TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   accuracy.view_error = Summarize(view_errors);
   accuracy.rotation_deg = Summarize(rotation_errors);
   accuracy.translation_relative = Summarize(translation_errors);
+  accuracy.view_values = std::move(view_errors);
+  accuracy.rotation_values_deg = std::move(rotation_errors);
+  accuracy.translation_values_relative = std::move(translation_errors);
   return accuracy;
 }
 

@@ -40,6 +40,10 @@ struct TrackAccuracy {
   /// object centre, of frames with the right object and a 6-DOF pose.
   ErrorSummary rotation_deg;
   ErrorSummary translation_relative;
+  /// The values summarised above, in frame order (for pooling several runs).
+  std::vector<double> view_values;
+  std::vector<double> rotation_values_deg;
+  std::vector<double> translation_values_relative;
 
   double RightObjectPercent() const { return frames > 0 ? 100.0 * right_object / frames : 0.0; }
 };
