@@ -47,16 +47,17 @@ install_opencv_headers() {
   if [ -f /usr/include/opencv4/opencv2/calib3d.hpp ] || [ -f "$headers_dir/opencv2/calib3d.hpp" ]; then
     return 0
   fi
-  local tmp
-  tmp="$(mktemp -d)"
+  local tmp deb
+  tmp="$(mktemp -d)" || return 1
   chmod 755 "$tmp"
-  (cd "$tmp" && $SUDO apt-get download -qq "${header_debs[@]}")
-  $SUDO mkdir -p "$headers_dir"
+  (cd "$tmp" && $SUDO apt-get download -qq "${header_debs[@]}") || { rm -rf "$tmp"; return 1; }
   for deb in "$tmp"/*.deb; do
-    dpkg-deb --fsys-tarfile "$deb" | $SUDO tar -x -C "$tmp" ./usr/include/opencv4
+    dpkg-deb --fsys-tarfile "$deb" | tar -x -C "$tmp" ./usr/include/opencv4 || { rm -rf "$tmp"; return 1; }
   done
-  $SUDO cp -r "$tmp/usr/include/opencv4/opencv2" "$headers_dir/"
-  $SUDO rm -rf "$tmp"
+  $SUDO mkdir -p "$headers_dir" && $SUDO cp -r "$tmp/usr/include/opencv4/opencv2" "$headers_dir/" ||
+    { rm -rf "$tmp"; return 1; }
+  rm -rf "$tmp"
+  [ -f "$headers_dir/opencv2/calib3d.hpp" ] || return 1
   echo "install-deps.sh: unpacked the headers of ${header_debs[*]} into $headers_dir"
 }
 SUDO=""
@@ -73,7 +74,9 @@ else
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-if ! install_opencv_headers 2>/dev/null; then
+# (apt-get download needs current package lists: on failure, update them and try again.)
+if ! install_opencv_headers; then
+  echo "install-deps.sh: updating the package lists and trying again"
   $SUDO apt-get update -qq
-  install_opencv_headers
+  install_opencv_headers || { echo "install-deps.sh: could not unpack the OpenCV calib3d headers" >&2; exit 1; }
 fi

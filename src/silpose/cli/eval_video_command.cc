@@ -19,7 +19,8 @@ struct EvalVideoArguments {
   std::vector<std::string> filmed;
   std::string output = "eval-video";
   std::string bg_method = "mog2";
-  int views = 1000;
+  int views = 0;   // 0: 1000, or 300 with --quick
+  int frames = 0;  // 0: 300, or 40 with --quick
   int threads = 0;
   bool quick = false;
   VideoExperimentOptions options;
@@ -34,9 +35,10 @@ void RunEvalVideo(EvalVideoArguments arguments) {
     // The test variant: the sample models, 2 of them filmed for 40 frames, a coarse database.
     if (paths.empty()) paths = SampleModels();
     if (options.models.empty()) options.models = {"bunny", "hand"};
-    options.frames = 40;
-    if (arguments.views == 1000) arguments.views = 300;
   }
+  if (arguments.views == 0) arguments.views = arguments.quick ? 300 : 1000;
+  options.frames = arguments.frames != 0 ? arguments.frames : (arguments.quick ? 40 : 300);
+  if (arguments.frames < 0 || arguments.views < 0) ThrowError("--frames and --views must be > 0");
   if (paths.empty()) paths = DefaultEvalModels();
   options.output_dir = arguments.output;
   std::string problem;
@@ -97,12 +99,13 @@ void AddEvalVideoCommand(CLI::App* eval) {
   command->add_option("-d,--database", arguments->database,
                       "Database built from exactly these meshes (default: build one)");
   command
-      ->add_option("--filmed", arguments->filmed,
-                   "Models to film, by name (default: bull, bunny, dino, elephant, hand)")
+      ->add_option(
+          "--filmed", arguments->filmed,
+          "Models to film, by name (default: those of bull, bunny, dino, elephant, hand in the "
+          "database)")
       ->delimiter(',');
   command->add_option("-o,--output", arguments->output, "Output folder")->capture_default_str();
-  command->add_option("--frames", arguments->options.frames, "Frames per video")
-      ->capture_default_str();
+  command->add_option("--frames", arguments->frames, "Frames per video (default 300; 40 --quick)");
   command
       ->add_option("--particles", arguments->options.particles_per_object, "Particles per object")
       ->capture_default_str();
@@ -111,8 +114,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
       ->capture_default_str();
   command->add_option("--bg-method", arguments->bg_method, "mog2 or knn")->capture_default_str();
   command->add_option("--seed", arguments->options.seed, "Seed")->capture_default_str();
-  command->add_option("--views", arguments->views, "Views per model when building")
-      ->capture_default_str();
+  command->add_option("--views", arguments->views,
+                      "Views per model when building (default 1000; 300 --quick)");
   command->add_option("--threads", arguments->threads, "Threads for building (0 = all)")
       ->capture_default_str();
   command->add_flag("--quick", arguments->quick,

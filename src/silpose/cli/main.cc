@@ -62,7 +62,11 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& error) {
     return app.exit(error);
   } catch (const silpose::Error& error) {
-    for (const CLI::App* sub : app.get_subcommands()) command = "silpose " + sub->get_name();
+    // The innermost subcommand that ran ("silpose eval video").
+    for (const CLI::App* level = &app; !level->get_subcommands().empty();) {
+      level = level->get_subcommands().front();
+      command += " " + level->get_name();
+    }
     std::fprintf(stderr, "%s: error: %s\n", command.c_str(), OneLine(error.what()).c_str());
     return 1;
   } catch (const cv::Exception& error) {

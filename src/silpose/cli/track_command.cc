@@ -22,20 +22,31 @@
 namespace silpose::cli {
 namespace {
 
+// The number an image file is named by ("000012.png" -> 12), else -1 (videos: "video.avi#12").
+int NumericStem(const std::string& name) {
+  const std::string stem = std::filesystem::path(name).stem().string();
+  if (stem.empty() || stem.size() > 9 || name.find('#') != std::string::npos) return -1;
+  for (char c : stem) {
+    if (c < '0' || c > '9') return -1;
+  }
+  return std::stoi(stem);
+}
+
 // "H,S,V,H,S,V" -> lower and upper HSV bounds.
 void ParseHsvRange(const std::string& text, SegmenterOptions* options) {
   std::vector<double> values;
   std::stringstream stream(text);
-  for (std::string item; std::getline(stream, item, ',');) {
+  bool valid = true;
+  for (std::string item; valid && std::getline(stream, item, ',');) {
     try {
       size_t used = 0;
       values.push_back(std::stod(item, &used));
-      if (used != item.size()) values.clear();
+      valid = used == item.size();
     } catch (const std::exception&) {
-      values.clear();
-      break;
+      valid = false;
     }
   }
+  if (!valid) values.clear();
   if (values.size() != 6) {
     ThrowError(
         "--hsv-range must be six numbers H,S,V,H,S,V (lower then upper bound, H in "
@@ -132,12 +143,19 @@ struct Outputs {
   }
 };
 
+void CreatePlotFolder(const TrackJob& arguments) {
+  if (arguments.plots.empty()) return;
+  std::error_code error;
+  std::filesystem::create_directories(arguments.plots, error);
+  if (error || !std::filesystem::is_directory(arguments.plots, error)) {
+    ThrowError(arguments.plots, ": cannot create the plot folder",
+               error ? ": " + error.message() : std::string());
+  }
+}
+
 void WritePlots(const TrackJob& arguments, const TrackReport& report) {
   if (arguments.plots.empty() || report.num_frames() == 0) return;
   const std::filesystem::path folder = arguments.plots;
-  std::error_code error;
-  std::filesystem::create_directories(folder, error);
-  if (error) ThrowError(folder.string(), ": cannot create folder: ", error.message());
   const std::string title = std::filesystem::path(arguments.input).filename().string();
   const Figure trajectory = report.TrajectoryFigure(title);
   trajectory.WriteSvg(folder / "trajectory.svg");
@@ -161,11 +179,18 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
   if (report.has_truth()) {
     const int skip = std::min(10, frames - 1);
     const TrackAccuracy accuracy = report.Accuracy(skip);
-    std::printf(
-        "against the ground truth, frames %d..%d: right object %.1f %%, pose error (view "
-        "direction) mean %.3f median %.3f",
-        skip, frames - 1, accuracy.RightObjectPercent(), accuracy.view_error.mean,
-        accuracy.view_error.median);
+    std::printf("against the ground truth, frames %d..%d: right object %.1f %%", skip, frames - 1,
+                accuracy.RightObjectPercent());
+    if (accuracy.view_error.count == 0) {
+      std::printf(", no estimates");
+    } else {
+      std::printf(", pose error (view direction) mean %.3f median %.3f", accuracy.view_error.mean,
+                  accuracy.view_error.median);
+      if (accuracy.view_error.count < accuracy.frames) {
+        std::printf(" (%d frames without an estimate left out)",
+                    accuracy.frames - accuracy.view_error.count);
+      }
+    }
     if (accuracy.rotation_deg.count > 0) {
       std::printf(", rotation error median %.1f deg, translation error median %.1f %%",
                   accuracy.rotation_deg.median, 100.0 * accuracy.translation_relative.median);
@@ -238,6 +263,7 @@ void RunTrackJob(const TrackJob& arguments) {
     }
     outputs.bop = std::make_unique<BopCsvWriter>(arguments.bop, bop);
   }
+  CreatePlotFolder(arguments);
   std::vector<std::optional<TriangleMesh>> meshes;
   if (!arguments.overlay.empty()) {
     const double fps = source->fps() > 0.0 ? source->fps() : 30.0;
@@ -252,9 +278,12 @@ void RunTrackJob(const TrackJob& arguments) {
   double total_ms = 0.0;
   try {
     do {
-      const int index = source->frame_index();
       TrackedFrame tracked = tracker.Process(frame);
       tracked.result.frame_name = source->name();
+      tracked.result.image_id = NumericStem(tracked.result.frame_name);
+      // Ground truth rows are matched by the image's number when it has one, else by the index.
+      const int index =
+          tracked.result.image_id >= 0 ? tracked.result.image_id : source->frame_index();
       const FrameResult& result = tracked.result;
       total_ms += result.time_ms;
       measured += tracked.silhouette.ok();

@@ -53,8 +53,7 @@ std::vector<int> ChosenModels(const ViewDatabase& database, const VideoExperimen
     const int index = database.FindModel(name);
     if (index >= 0) chosen.push_back(index);
   }
-  if (chosen.size() < kDefaultVideoModels.size()) {
-    chosen.clear();
+  if (chosen.empty()) {
     for (int m = 0; m < static_cast<int>(database.models.size()) && m < 5; ++m) chosen.push_back(m);
   }
   return chosen;

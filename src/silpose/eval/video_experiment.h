@@ -19,7 +19,8 @@
 namespace silpose {
 
 struct VideoExperimentOptions {
-  /// Database model names to film; empty: kDefaultVideoModels those present (else the first 5).
+  /// Database model names to film; empty: those of kDefaultVideoModels in the database (if none
+  /// is, the first 5 models).
   std::vector<std::string> models;
   /// Frames per video (random walk of view, roll and distance 3-6 radii; trajectory.h).
   int frames = 300;

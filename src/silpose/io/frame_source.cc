@@ -12,6 +12,7 @@
 #include "silpose/util/error.h"
 
 #if SILPOSE_WITH_VIDEOIO
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/videoio.hpp>
 #endif
 
@@ -60,11 +61,23 @@ cv::Mat DecodeImageFile(const std::filesystem::path& path, FrameColor color, int
 }
 
 #if SILPOSE_WITH_VIDEOIO
+// OpenCV's videoio backends log every failed attempt (GStreamer, V4L2, ...) to stderr; silpose
+// reports the failure itself in one line, so keep OpenCV's log to errors.
+void QuietOpenCvLog() {
+  static const bool once = [] {
+    if (cv::utils::logging::getLogLevel() > cv::utils::logging::LOG_LEVEL_ERROR)
+      cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+    return true;
+  }();
+  (void)once;
+}
+
 // Videos (other than the AVI files AviReader reads) and cameras through OpenCV videoio.
 class OpenCvVideoSource final : public FrameSource {
  public:
   OpenCvVideoSource(const std::filesystem::path& path, FrameColor color)
       : FrameSource(color), label_(path.filename().string()) {
+    QuietOpenCvLog();
     try {
       capture_.open(path.string(), cv::CAP_ANY);
     } catch (const cv::Exception& exception) {
@@ -78,6 +91,7 @@ class OpenCvVideoSource final : public FrameSource {
 
   OpenCvVideoSource(int camera, FrameColor color)
       : FrameSource(color), label_("camera" + std::to_string(camera)) {
+    QuietOpenCvLog();
     try {
       capture_.open(camera, cv::CAP_ANY);
     } catch (const cv::Exception& exception) {

@@ -180,7 +180,8 @@ bool BopCsvWriter::Write(const FrameResult& result) {
     object_id = options_.object_ids[static_cast<size_t>(result.object)];
   }
   const Rigid3& pose = *result.camera_from_object;
-  std::string line = std::to_string(options_.scene_id) + ',' + std::to_string(result.frame) + ',' +
+  std::string line = std::to_string(options_.scene_id) + ',' +
+                     std::to_string(result.image_id >= 0 ? result.image_id : result.frame) + ',' +
                      std::to_string(object_id) + ',' +
                      Number(std::isfinite(result.score) ? result.score : 0.0) + ',';
   for (int r = 0; r < 3; ++r) {

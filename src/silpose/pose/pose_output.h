@@ -32,6 +32,9 @@ struct FrameResult {
   int frame = 0;
   /// The frame's file name or other label (JSON only); empty = unknown.
   std::string frame_name;
+  /// The image's own number when the input names it (an image file "000012.png" -> 12), else -1.
+  /// BOP's im_id is this number when known, else `frame`.
+  int image_id = -1;
   /// Whether the frame had a usable silhouette and how it was used ("measured",
   /// "predicted-no-silhouette-empty", ...); free text without commas or line breaks.
   std::string status;
@@ -103,7 +106,8 @@ struct BopOutputOptions {
 };
 
 /// Writes a BOP19 results CSV (see above): header `scene_id,im_id,obj_id,score,R,t,time`, then one
-/// row per frame with an object and a pose (others are skipped); im_id = frame, score = the
+/// row per frame with an object and a pose (others are skipped); im_id = image_id if known, else
+/// frame; score = the
 /// result's score (0 if unknown), time = time_ms / 1000 (-1 if unknown).
 class BopCsvWriter {
  public:

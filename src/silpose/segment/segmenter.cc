@@ -96,10 +96,17 @@ class MaskModel final : public ForegroundModel {
                                 std::string*) override {
     cv::Mat single = working;
     if (working.channels() > 1) {
-      // Largest channel value per pixel: one row per pixel, reduced across its channels.
-      const cv::Mat rows = working.reshape(1, static_cast<int>(working.total()));
+      // Largest colour channel value per pixel (alpha ignored): one row per pixel, reduced
+      // across its channels. reshape needs continuous data (an ROI is copied).
+      cv::Mat colour = working;
+      if (working.channels() == 4) {
+        cv::cvtColor(working, colour, cv::COLOR_BGRA2BGR);
+      } else if (!working.isContinuous()) {
+        colour = working.clone();
+      }
+      const cv::Mat rows = colour.reshape(1, static_cast<int>(colour.total()));
       cv::reduce(rows, single, 1, cv::REDUCE_MAX);
-      single = single.reshape(1, working.rows);
+      single = single.reshape(1, colour.rows);
     }
     cv::threshold(single, *foreground, threshold_, 255, cv::THRESH_BINARY);
     return SegmentationStatus::kOk;

@@ -34,7 +34,8 @@ struct TrackAccuracy {
   /// Frames whose estimated object is the true one.
   int right_object = 0;
   /// The paper's pose error (view-direction distance, [0, 2]) of every frame with an estimate,
-  /// right object or not (the paper's metric counts every frame).
+  /// right object or not (the paper counts every frame, all of which had a silhouette; here frames
+  /// without an estimate, e.g. before the first silhouette, are left out: see view_error.count).
   ErrorSummary view_error;
   /// Rotation error (degrees) and translation error relative to the true camera distance from the
   /// object centre, of frames with the right object and a 6-DOF pose.

@@ -121,11 +121,21 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   if (result.object >= 0 && view >= 0) {
     result.object_name = database_.models[static_cast<size_t>(result.object)].name;
     result.view_dir_in_object = database_.sphere.directions[static_cast<size_t>(view)];
-    if (options_.estimate_pose && usable && roll_known) {
-      tracked.pose =
-          EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
-                                     tracked.silhouette.signature, camera_, options_.pose);
-      result.camera_from_object = tracked.pose->camera_from_object;
+    const bool cut_off = (tracked.silhouette.flags & kSilhouetteTouchesBorder) != 0;
+    if (options_.estimate_pose && usable && roll_known && cut_off) {
+      // The silhouette runs out of the image: its centre and size are not the object's.
+      result.status += "-cut-by-border-no-pose";
+    } else if (options_.estimate_pose && usable && roll_known) {
+      try {
+        tracked.pose =
+            EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
+                                       tracked.silhouette.signature, camera_, options_.pose);
+        result.camera_from_object = tracked.pose->camera_from_object;
+      } catch (const Error&) {
+        // A problem of this frame only (e.g. a centroid outside the lens model's valid range):
+        // the frame keeps its object and view, without a pose.
+        result.status += "-no-pose";
+      }
     }
   }
   result.time_ms =

@@ -13,7 +13,10 @@
 // A frame whose segmentation fails (still learning the background, nothing found, the whole frame
 // changed) or whose silhouette cannot be described (too small, ...) is not an error: the filter
 // only predicts, the result's status says why, and there is no pose for it. Until the first frame
-// with a silhouette the result names no object.
+// with a silhouette the result names no object. A measured frame gets no 6-DOF pose when its
+// silhouette touches the image border (status "measured-cut-by-border-no-pose": its centre and
+// size are not the object's) or the pose cannot be computed for it ("measured-no-pose", e.g. a
+// centroid outside the valid range of the lens distortion model).
 
 #include <memory>
 #include <optional>

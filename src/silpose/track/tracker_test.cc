@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/pose/pose_error.h"
@@ -51,6 +53,8 @@ double SpacingDeg() { return Database().sphere.typical_spacing_rad * 180.0 / std
 
 struct RunSummary {
   std::vector<std::string> objects;
+  // Per frame: object, view, roll and translation, printed exactly.
+  std::vector<std::string> estimates;
   std::vector<double> rotation_errors_deg;
   std::vector<double> translation_errors;  // relative to the true distance
 };
@@ -64,6 +68,13 @@ RunSummary TrackSequence(const TrackerOptions& options) {
     EXPECT_EQ(tracked.result.frame, f);
     EXPECT_EQ(tracked.result.status, "measured") << "frame " << f;
     summary.objects.push_back(tracked.result.object_name);
+    std::ostringstream estimate;
+    estimate.precision(17);
+    estimate << tracked.result.object << ' ' << tracked.result.roll_deg << ' ';
+    if (tracked.result.view_dir_in_object) estimate << tracked.result.view_dir_in_object->x();
+    if (tracked.result.camera_from_object)
+      estimate << ' ' << tracked.result.camera_from_object->translation.transpose();
+    summary.estimates.push_back(estimate.str());
     // Settled frames only: 10 frames after the start and after the switch.
     const bool settled = (f >= 10 && f < 40) || f >= 50;
     if (settled && tracked.result.object_name == frame.truth.object) {
@@ -102,7 +113,9 @@ TEST(Tracker, IdentifiesTheObjectAndItsPoseAcrossASwitch) {
 TEST(Tracker, SameSeedSameResults) {
   TrackerOptions options;
   options.filter.seed = 11;
-  EXPECT_EQ(TrackSequence(options).objects, TrackSequence(options).objects);
+  const RunSummary first = TrackSequence(options);
+  EXPECT_EQ(first.estimates, TrackSequence(options).estimates);
+  EXPECT_EQ(first.estimates.size(), 80u);
 }
 
 TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
@@ -133,6 +146,45 @@ TEST(Tracker, FrameWithoutSilhouetteIsAPredictionWithoutPose) {
   EXPECT_FALSE(tracked.estimate->measured);
   EXPECT_GE(tracked.result.object, 0);  // the filter still has an estimate
   EXPECT_EQ(tracker.num_frames(), 3);
+}
+
+// The cow's silhouette shrunk by `scale` and centred at `centre` in an empty frame.
+cv::Mat PlacedSilhouette(double scale, cv::Point centre) {
+  const cv::Mat full = Sequence().Generate(5).mask;
+  const cv::Rect box = cv::boundingRect(full);
+  cv::Mat small;
+  cv::resize(full(box), small, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  cv::Mat frame = cv::Mat::zeros(full.size(), CV_8UC1);
+  const cv::Rect target(centre.x - small.cols / 2, centre.y - small.rows / 2, small.cols,
+                        small.rows);
+  const cv::Rect inside = target & cv::Rect(0, 0, frame.cols, frame.rows);
+  small(cv::Rect(inside.x - target.x, inside.y - target.y, inside.width, inside.height))
+      .copyTo(frame(inside));
+  return frame;
+}
+
+TEST(Tracker, SilhouetteCutByTheBorderGetsNoPose) {
+  Tracker tracker(Database(), Sequence().camera());
+  tracker.Process(Sequence().Generate(5).mask);
+  const TrackedFrame tracked = tracker.Process(PlacedSilhouette(0.5, {20, 240}));
+  EXPECT_EQ(tracked.result.status, "measured-cut-by-border-no-pose");
+  EXPECT_GE(tracked.result.object, 0);
+  EXPECT_FALSE(tracked.result.camera_from_object.has_value());
+}
+
+TEST(Tracker, AFrameWhosePoseCannotBeComputedKeepsItsObjectAndTheRunGoesOn) {
+  // Strong barrel distortion: the lens model folds before the image corner, so a silhouette
+  // centred there cannot be undistorted.
+  PinholeCamera camera = Sequence().camera();
+  camera.distortion = {-0.5, 0.0, 0.0, 0.0, 0.0};
+  Tracker tracker(Database(), camera);
+  const TrackedFrame corner = tracker.Process(PlacedSilhouette(0.25, {560, 400}));
+  EXPECT_EQ(corner.result.status, "measured-no-pose");
+  EXPECT_GE(corner.result.object, 0);
+  EXPECT_FALSE(corner.result.camera_from_object.has_value());
+  const TrackedFrame centre = tracker.Process(PlacedSilhouette(0.25, {320, 240}));
+  EXPECT_EQ(centre.result.status, "measured");
+  EXPECT_TRUE(centre.result.camera_from_object.has_value());
 }
 
 TEST(Tracker, RefusesFramesOfAnotherSize) {
