@@ -109,6 +109,7 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
     // The video as a camera would record it (MJPEG), and the empty scene.
     const std::filesystem::path model_dir = folder / database.models[static_cast<size_t>(m)].name;
     std::filesystem::create_directories(model_dir, error);
+    if (error) ThrowError(model_dir.string(), ": cannot create folder: ", error.message());
     const std::filesystem::path video_path = model_dir / "video.avi";
     const std::filesystem::path background_path = model_dir / "background.png";
     {
@@ -116,8 +117,13 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
       for (int f = 0; f < sequence.num_frames(); ++f) video->Write(sequence.Generate(f).colour);
       video->Close();
     }
-    if (!cv::imwrite(background_path.string(), sequence.background()))
-      ThrowError(background_path.string(), ": cannot write");
+    bool written = false;
+    try {
+      written = cv::imwrite(background_path.string(), sequence.background());
+    } catch (const cv::Exception& exception) {
+      ThrowError(background_path.string(), ": cannot write (", exception.err, ")");
+    }
+    if (!written) ThrowError(background_path.string(), ": cannot write");
 
     TrackerOptions tracker_options;
     tracker_options.segmentation = options.segmentation;
