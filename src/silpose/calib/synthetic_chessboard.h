@@ -8,8 +8,9 @@
 // square_size; the board's squares cover [-1, board_cols] x [-1, board_rows] squares, with a white
 // border around them. The square touching the first inner corner diagonally is dark.
 //
-// Header-only (OpenCV core and Eigen only), so that tests of other layers and of the command line
-// can make calibration images without linking the calib layer.
+// Header-only (OpenCV core, Eigen and the lens model of pose/lens_distortion.h), so that tests of
+// other layers and of the command line can make calibration images without linking the calib
+// layer.
 
 #include <Eigen/Core>
 #include <Eigen/LU>
@@ -20,6 +21,7 @@
 
 #include "silpose/geometry/pinhole_camera.h"
 #include "silpose/geometry/rigid3.h"
+#include "silpose/pose/lens_distortion.h"
 
 namespace silpose {
 
@@ -38,40 +40,6 @@ struct SyntheticChessboardOptions {
   /// Grey level where a pixel's ray misses the board.
   uint8_t background = 120;
 };
-
-/// Applies OpenCV's distortion model (k1 k2 p1 p2 k3) to normalized image coordinates.
-inline Eigen::Vector2d DistortNormalized(const PinholeCamera& camera, const Eigen::Vector2d& p) {
-  const auto& k = camera.distortion;
-  const double x = p.x();
-  const double y = p.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]));
-  return {x * radial + 2.0 * k[2] * x * y + k[3] * (r2 + 2.0 * x * x),
-          y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * x * y};
-}
-
-/// Inverts DistortNormalized by fixed-point iteration (enough for the moderate distortion of
-/// ordinary lenses inside the image).
-inline Eigen::Vector2d UndistortNormalized(const PinholeCamera& camera,
-                                           const Eigen::Vector2d& distorted) {
-  Eigen::Vector2d p = distorted;
-  for (int iteration = 0; iteration < 50; ++iteration) {
-    const Eigen::Vector2d next = p + (distorted - DistortNormalized(camera, p));
-    const double change = (next - p).squaredNorm();
-    p = next;
-    if (change < 1e-24) break;
-  }
-  return p;
-}
-
-/// Projects a point in the camera frame (Z > 0) to pixels, with the camera's lens distortion.
-inline Eigen::Vector2d ProjectDistorted(const PinholeCamera& camera,
-                                        const Eigen::Vector3d& point_in_camera) {
-  const Eigen::Vector2d d =
-      DistortNormalized(camera, point_in_camera.head<2>() / point_in_camera.z());
-  return {camera.focal_x_px * d.x() + camera.principal_x_px,
-          camera.focal_y_px * d.y() + camera.principal_y_px};
-}
 
 /// The board's inner corners in the board frame, row-major (board_cols per row).
 inline std::vector<Eigen::Vector3d> ChessboardCornersInBoard(
@@ -112,9 +80,11 @@ inline cv::Mat RenderSyntheticChessboard(const PinholeCamera& camera,
         for (int b = 0; b < n; ++b) {
           const double su = u + (b + 0.5) / n - 0.5;
           const double sv = v + (a + 0.5) / n - 0.5;
-          const Eigen::Vector2d ray =
-              UndistortNormalized(camera, {(su - camera.principal_x_px) / camera.focal_x_px,
-                                           (sv - camera.principal_y_px) / camera.focal_y_px});
+          Eigen::Vector2d ray;
+          if (!PixelToIdealNormalized(camera, {su, sv}, &ray)) {
+            sum += options.background;  // beyond the lens model's valid range
+            continue;
+          }
           const Eigen::Vector3d plane = ray_to_plane * Eigen::Vector3d(ray.x(), ray.y(), 1.0);
           double level = options.background;
           if (plane.z() > 0.0) {  // in front of the camera
