@@ -196,6 +196,14 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
                   accuracy.rotation_deg.median, 100.0 * accuracy.translation_relative.median);
     }
     std::printf("\n");
+    for (const TrackReport::ObjectChange& change : report.ObjectChanges()) {
+      if (change.delay >= 0) {
+        std::printf("the object changes at frame %d: identified %d frames later\n", change.frame,
+                    change.delay);
+      } else {
+        std::printf("the object changes at frame %d: not identified afterwards\n", change.frame);
+      }
+    }
   }
 }
 

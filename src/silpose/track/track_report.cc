@@ -68,6 +68,35 @@ TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   return accuracy;
 }
 
+std::vector<TrackReport::ObjectChange> TrackReport::ObjectChanges(int stable_frames) const {
+  std::vector<ObjectChange> changes;
+  std::vector<size_t> starts;
+  for (size_t i = 1; i < frames_.size(); ++i) {
+    if (frames_[i].truth && frames_[i - 1].truth &&
+        frames_[i].truth->object != frames_[i - 1].truth->object) {
+      starts.push_back(i);
+    }
+  }
+  for (size_t k = 0; k < starts.size(); ++k) {
+    const size_t begin = starts[k];
+    const size_t end = k + 1 < starts.size() ? starts[k + 1] : frames_.size();
+    ObjectChange change;
+    change.frame = frames_[begin].result.frame;
+    size_t run = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const bool right = frames_[i].truth && frames_[i].result.object >= 0 &&
+                         frames_[i].result.object_name == frames_[i].truth->object;
+      run = right ? run + 1 : 0;
+      if (run == static_cast<size_t>(std::max(stable_frames, 1))) {
+        change.delay = static_cast<int>(i + 1 - run - begin);
+        break;
+      }
+    }
+    changes.push_back(change);
+  }
+  return changes;
+}
+
 Figure TrackReport::TrajectoryFigure(const std::string& title) const {
   Figure figure;
   figure.width_px = 1000;

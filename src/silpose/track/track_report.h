@@ -61,6 +61,15 @@ class TrackReport {
   bool has_truth() const { return truth_frames_ > 0; }
   TrackAccuracy Accuracy(int skip_frames = 0) const;
 
+  /// Where the true object changes (frames with a truth whose object differs from the previous
+  /// truth's): the frame, and how many frames later the estimate names the new object and keeps
+  /// naming it for `stable_frames` frames (-1: never, before the end or the next change).
+  struct ObjectChange {
+    int frame = 0;
+    int delay = -1;
+  };
+  std::vector<ObjectChange> ObjectChanges(int stable_frames = 5) const;
+
   /// Paper Fig. 5: the view directions on the unit sphere, seen from +z (left panel, z >= 0) and
   /// from -z (right panel, z < 0, mirrored so that both show the sphere as seen from outside):
   /// the estimates as markers, one colour per object, the truth as a grey line.

@@ -61,6 +61,25 @@ TEST(TrackReport, AccuracyCountsObjectsAndErrors) {
   EXPECT_EQ(skipped.right_object, 2);
 }
 
+TEST(TrackReport, ObjectChangesAndTheirDelays) {
+  TrackReport report({"cow", "hand"});
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const Rigid3 pose = CameraFromObjectAtView(z, 0.0, 10.0, Eigen::Vector3d::Zero());
+  // Truth: cow 0-9, hand 10-29, cow 30-34. Estimate: cow until 12, then hand (flickering to cow at
+  // 15), cow never again.
+  for (int f = 0; f < 35; ++f) {
+    const std::string truth = f < 10 || f >= 30 ? "cow" : "hand";
+    const bool cow = f < 13 || f == 15;
+    report.Add(Result(f, cow ? 0 : 1, cow ? "cow" : "hand", z, pose), Truth(truth, z, pose));
+  }
+  const std::vector<TrackReport::ObjectChange> changes = report.ObjectChanges(5);
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[0].frame, 10);
+  EXPECT_EQ(changes[0].delay, 6);  // hand from 16 on for 5 frames (13, 14 broken by 15)
+  EXPECT_EQ(changes[1].frame, 30);
+  EXPECT_EQ(changes[1].delay, -1);
+}
+
 TEST(TrackReport, FiguresShowTheTrajectoryAndTheErrors) {
   TrackReport report({"cow", "hand"});
   for (int f = 0; f < 90; ++f) {
