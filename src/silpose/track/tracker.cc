@@ -8,13 +8,7 @@
 namespace silpose {
 
 PinholeCamera DefaultCamera(int width_px, int height_px) {
-  PinholeCamera camera;
-  camera.width_px = width_px;
-  camera.height_px = height_px;
-  camera.focal_x_px = camera.focal_y_px = 525.0 / 640.0 * width_px;
-  camera.principal_x_px = (width_px - 1) / 2.0;
-  camera.principal_y_px = (height_px - 1) / 2.0;
-  return camera;
+  return PinholeCamera::Centered(width_px, height_px, 525.0 / 640.0 * width_px);
 }
 
 ParticleFilterOptions TrackerOptions::DefaultFilterOptions() {
