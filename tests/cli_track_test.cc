@@ -193,7 +193,8 @@ TEST_F(CliTrackTest, BadSegmentationOptionsAreRefused) {
   for (const char* options :
        {"--segment grabcut", "--segment bgsub --bg-method foo", "--hsv-range 1,2,3",
         "--segment bgsub --background /nonexistent/bg.png", "--downscale 0",
-        "--segment threshold --hsv-range 0x,10,20,30,170,250,250"}) {
+        "--segment threshold --hsv-range 0x,10,20,30,170,250,250", "--hsv-range 0,0,0,179,255,255",
+        "--segment threshold --background x.png", "--bop-object-ids 1,2"}) {
     const CommandResult run = Silpose("track -d " + database_ + " " + sequence_ + " -o " +
                                       Path("bad.csv") + " " + options);
     EXPECT_NE(run.exit_code, 0) << options;

@@ -222,6 +222,27 @@ void RunTrackJob(const TrackJob& arguments) {
     segment.threshold_method = ThresholdMethod::kHsvRange;
   }
   if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
+  // Options of another segmentation kind would be ignored: refuse them.
+  const SegmenterOptions defaults;
+  auto refuse_unless = [&](SegmenterKind kind, bool given, const char* option) {
+    if (given && segment.kind != kind) {
+      ThrowError(option, " applies to --segment ", ToString(kind), " only (this run: --segment ",
+                 ToString(segment.kind), ")");
+    }
+  };
+  refuse_unless(SegmenterKind::kThreshold, !arguments.hsv_range.empty(), "--hsv-range");
+  refuse_unless(SegmenterKind::kThreshold, arguments.threshold_method != "otsu",
+                "--threshold-method");
+  refuse_unless(SegmenterKind::kThreshold, arguments.object_polarity != "darker",
+                "--object-polarity");
+  refuse_unless(SegmenterKind::kBackground, arguments.background_method != "mog2", "--bg-method");
+  refuse_unless(SegmenterKind::kBackground, !segment.background_image_path.empty(), "--background");
+  refuse_unless(SegmenterKind::kBackground, segment.learning_frames != defaults.learning_frames,
+                "--learning-frames");
+  refuse_unless(SegmenterKind::kMask, segment.mask_threshold != defaults.mask_threshold,
+                "--mask-threshold");
+  if (!arguments.bop_object_ids.empty() && arguments.bop.empty())
+    ThrowError("--bop-object-ids applies with --bop only");
   // A synth folder holds its empty scene: learn the background from it rather than from frames
   // that already show the object.
   std::error_code error;
