@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 
 #include "silpose/cli/commands.h"
 #include "silpose/eval/evaluation_database.h"
@@ -56,7 +57,7 @@ void RunEvalVideo(EvalVideoArguments arguments) {
       "eval video: %zu models in the database (%d views, %.1f deg apart), %d frames per "
       "video, background subtraction (%s), camera noise %.1f\n",
       database.models.size(), database.num_views(),
-      database.sphere.typical_spacing_rad * 180.0 / 3.14159265358979, options.frames,
+      database.sphere.typical_spacing_rad * 180.0 / std::numbers::pi, options.frames,
       arguments.bg_method.c_str(), options.camera_noise);
 
   const VideoExperimentResult result = RunVideoExperiment(database, meshes, options);

@@ -223,7 +223,7 @@ void RunTrackJob(const TrackJob& arguments) {
   }
   if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
   // Options of another segmentation kind would be ignored: refuse them.
-  const SegmenterOptions defaults;
+  const TrackJob defaults;
   auto refuse_unless = [&](SegmenterKind kind, bool given, const char* option) {
     if (given && segment.kind != kind) {
       ThrowError(option, " applies to --segment ", ToString(kind), " only (this run: --segment ",
@@ -231,15 +231,18 @@ void RunTrackJob(const TrackJob& arguments) {
     }
   };
   refuse_unless(SegmenterKind::kThreshold, !arguments.hsv_range.empty(), "--hsv-range");
-  refuse_unless(SegmenterKind::kThreshold, arguments.threshold_method != "otsu",
+  refuse_unless(SegmenterKind::kThreshold, arguments.threshold_method != defaults.threshold_method,
                 "--threshold-method");
-  refuse_unless(SegmenterKind::kThreshold, arguments.object_polarity != "darker",
+  refuse_unless(SegmenterKind::kThreshold, arguments.object_polarity != defaults.object_polarity,
                 "--object-polarity");
-  refuse_unless(SegmenterKind::kBackground, arguments.background_method != "mog2", "--bg-method");
+  refuse_unless(SegmenterKind::kBackground,
+                arguments.background_method != defaults.background_method, "--bg-method");
   refuse_unless(SegmenterKind::kBackground, !segment.background_image_path.empty(), "--background");
-  refuse_unless(SegmenterKind::kBackground, segment.learning_frames != defaults.learning_frames,
+  refuse_unless(SegmenterKind::kBackground,
+                segment.learning_frames != defaults.tracker.segmentation.learning_frames,
                 "--learning-frames");
-  refuse_unless(SegmenterKind::kMask, segment.mask_threshold != defaults.mask_threshold,
+  refuse_unless(SegmenterKind::kMask,
+                segment.mask_threshold != defaults.tracker.segmentation.mask_threshold,
                 "--mask-threshold");
   if (!arguments.bop_object_ids.empty() && arguments.bop.empty())
     ThrowError("--bop-object-ids applies with --bop only");
@@ -324,16 +327,8 @@ void RunTrackJob(const TrackJob& arguments) {
           std::lower_bound(truth.begin(), truth.end(), index,
                            [](const GroundTruthFrame& a, int value) { return a.frame < value; });
       if (row != truth.end() && row->frame == index) {
-        TruthFrame t;
-        t.object = row->object;
-        t.view_dir_in_object = row->view_dir_in_object;
-        t.camera_from_object = row->camera_from_object;
-        const int model = database.FindModel(row->object);
-        if (model >= 0) {
-          const ModelViews& views = database.models[static_cast<size_t>(model)];
-          t.object_centre = Eigen::Vector3d(views.centre[0], views.centre[1], views.centre[2]);
-        }
-        frame_truth = t;
+        frame_truth =
+            MakeTruthFrame(database, row->object, row->view_dir_in_object, row->camera_from_object);
       }
       report.Add(result, frame_truth);
       if (outputs.overlay) {

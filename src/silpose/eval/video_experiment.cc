@@ -146,13 +146,8 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
       row.track_ms += tracked.result.time_ms;
       poses.Write(tracked.result);
       const GroundTruthFrame truth = sequence.Truth(source->frame_index());
-      TruthFrame t;
-      t.object = truth.object;
-      t.view_dir_in_object = truth.view_dir_in_object;
-      t.camera_from_object = truth.camera_from_object;
-      const ModelViews& views = database.models[static_cast<size_t>(m)];
-      t.object_centre = Eigen::Vector3d(views.centre[0], views.centre[1], views.centre[2]);
-      report.Add(tracked.result, t);
+      report.Add(tracked.result, MakeTruthFrame(database, truth.object, truth.view_dir_in_object,
+                                                truth.camera_from_object));
       ++row.frames;
       progress.Advance();
     }

@@ -29,6 +29,21 @@ double PlotX(const Eigen::Vector3d& d, int side) { return side > 0 ? d.x() : -d.
 
 }  // namespace
 
+TruthFrame MakeTruthFrame(const ViewDatabase& database, const std::string& object,
+                          const Eigen::Vector3d& view_dir_in_object,
+                          const Rigid3& camera_from_object) {
+  TruthFrame truth;
+  truth.object = object;
+  truth.view_dir_in_object = view_dir_in_object;
+  truth.camera_from_object = camera_from_object;
+  const int model = database.FindModel(object);
+  if (model >= 0) {
+    const ModelViews& views = database.models[static_cast<size_t>(model)];
+    truth.object_centre = Eigen::Vector3d(views.centre[0], views.centre[1], views.centre[2]);
+  }
+  return truth;
+}
+
 TrackReport::TrackReport(std::vector<std::string> object_names)
     : object_names_(std::move(object_names)) {}
 

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "silpose/database/view_database.h"
 #include "silpose/geometry/rigid3.h"
 #include "silpose/plot/figure.h"
 #include "silpose/pose/pose_error.h"
@@ -26,6 +27,12 @@ struct TruthFrame {
   /// Object centre in the model frame (for the camera distance).
   Eigen::Vector3d object_centre = Eigen::Vector3d::Zero();
 };
+
+/// The truth of a frame showing `object` (a model name), with the object centre taken from the
+/// database (zero if the database has no such model).
+TruthFrame MakeTruthFrame(const ViewDatabase& database, const std::string& object,
+                          const Eigen::Vector3d& view_dir_in_object,
+                          const Rigid3& camera_from_object);
 
 /// Accuracy of a run against ground truth. Frames before `skip_frames` are left out (the filter's
 /// start-up); every later frame with a truth counts.
