@@ -212,9 +212,10 @@ ContourRefinementResult RefinePoseToContour(const TriangleMesh& mesh, const Pinh
                                             const FrameOutline& frame, const Rigid3& initial,
                                             const ContourRefinementOptions& options = {});
 
-/// The residuals and their Jacobian at `pose` for outline points `points_in_object` (model
-/// frame), as used by RefinePoseToContour: residual[i] (pixels) and row i of `jacobian` (d
-/// residual / d(w, d), update as above, about `centre` in the model frame). Points not evaluable
+/// The model -> frame residuals and their Jacobian at `pose` for outline points
+/// `points_in_object` (model frame), as RefinePoseToContour computes them but without the
+/// rendered-outline offsets o: residual[i] (pixels) and row i of `jacobian` (d residual / d(w, d),
+/// update as above, about `centre` in the model frame). Points not evaluable
 /// (behind the camera, outside the frame window) get valid[i] = 0. For tests and diagnostics.
 void ContourResiduals(const PinholeCamera& camera, const FrameOutline& frame, const Rigid3& pose,
                       const Eigen::Vector3d& centre,
