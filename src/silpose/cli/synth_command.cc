@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "silpose/cli/commands.h"
@@ -24,7 +25,9 @@ struct SynthArguments {
   double tilt_deg = 30.0;
   std::string camera;
   double distance_radii = 3.0;
-  std::vector<double> distance_range = {3.0, 6.0};
+  std::vector<double> distance_range;  // empty: walk 3,6; handheld 4,10
+  HandheldOptions handheld;
+  std::vector<double> speed_range = {handheld.speed_min_deg, handheld.speed_max_deg};
   double roll_deg = 0.0;
   double roll_speed_deg = 0.5;
   std::vector<int> switch_at;
@@ -43,6 +46,9 @@ struct SynthArguments {
   CLI::Option* distance_option = nullptr;
   CLI::Option* range_option = nullptr;
   CLI::Option* roll_speed_option = nullptr;
+  CLI::Option* step_option = nullptr;
+  CLI::Option* roll_option = nullptr;
+  std::vector<CLI::Option*> handheld_options;  // only for --trajectory handheld
   bool video = false;
   double fps = 30.0;
   std::vector<CLI::Option*> colour_options;  // need --colour
@@ -54,10 +60,65 @@ void RefuseFor(const CLI::Option* option, const char* trajectory) {
   }
 }
 
+// The handheld options from the command line, each checked with a message naming its option.
+HandheldOptions MakeHandheld(const SynthArguments& arguments) {
+  HandheldOptions hand = arguments.handheld;
+  hand.seed = arguments.seed;
+  if (arguments.speed_range.size() != 2) {
+    ThrowError("--speed-range must be two numbers MIN,MAX (degrees per frame)");
+  }
+  hand.speed_min_deg = arguments.speed_range[0];
+  hand.speed_max_deg = arguments.speed_range[1];
+  if (!(hand.speed_min_deg >= 0.0 && hand.speed_max_deg >= hand.speed_min_deg &&
+        hand.speed_max_deg <= 45.0)) {
+    ThrowError("--speed-range must satisfy 0 <= MIN <= MAX <= 45 (degrees per frame), got ",
+               hand.speed_min_deg, ",", hand.speed_max_deg);
+  }
+  const std::pair<double, const char*> probabilities[] = {
+      {hand.pause_probability, "--pause-probability"},
+      {hand.reverse_probability, "--reverse-probability"},
+      {hand.cut_probability, "--cut-probability"}};
+  for (const auto& [value, name] : probabilities) {
+    if (!(value >= 0.0 && value <= 1.0)) ThrowError(name, " must be in [0, 1], got ", value);
+  }
+  if (!(hand.max_off_axis_deg >= 0.0 && hand.max_off_axis_deg <= 60.0)) {
+    ThrowError("--max-off-axis-deg must be in [0, 60] degrees, got ", hand.max_off_axis_deg);
+  }
+  if (!arguments.distance_range.empty()) {
+    hand.distance_min_radii = arguments.distance_range[0];
+    hand.distance_max_radii = arguments.distance_range[1];
+    if (!(hand.distance_min_radii > 1.0 && hand.distance_max_radii >= hand.distance_min_radii &&
+          std::isfinite(hand.distance_max_radii))) {
+      ThrowError("--distance-range must satisfy 1 < MIN <= MAX (object radii), got ",
+                 hand.distance_min_radii, ",", hand.distance_max_radii);
+    }
+  }
+  std::string problem;
+  if (!hand.Check(&problem)) ThrowError("invalid handheld trajectory: ", problem);
+  return hand;
+}
+
 TrajectoryOptions MakeTrajectory(const SynthArguments& arguments, int num_models) {
   TrajectoryOptions trajectory;
   if (arguments.frames < 0) ThrowError("--frames must be >= 1 (or 0 for the default)");
-  if (arguments.trajectory == "orbit") {
+  if (arguments.trajectory != "handheld") {
+    for (const CLI::Option* option : arguments.handheld_options) {
+      RefuseFor(option, arguments.trajectory.c_str());
+    }
+  }
+  if (!arguments.distance_range.empty() && arguments.distance_range.size() != 2) {
+    ThrowError("--distance-range must be two numbers MIN,MAX (object radii)");
+  }
+  if (arguments.trajectory == "handheld") {
+    for (const CLI::Option* option :
+         {arguments.step_option, arguments.tilt_option, arguments.distance_option,
+          arguments.roll_option, arguments.roll_speed_option}) {
+      RefuseFor(option, "handheld");
+    }
+    trajectory.kind = TrajectoryKind::kHandheld;
+    trajectory.handheld = MakeHandheld(arguments);
+    trajectory.num_frames = arguments.frames > 0 ? arguments.frames : 360;
+  } else if (arguments.trajectory == "orbit") {
     RefuseFor(arguments.range_option, "orbit");
     RefuseFor(arguments.roll_speed_option, "orbit");
     trajectory.kind = TrajectoryKind::kOrbit;
@@ -79,11 +140,10 @@ TrajectoryOptions MakeTrajectory(const SynthArguments& arguments, int num_models
     walk.speed_sigma_deg = arguments.step_deg;
     walk.start_roll_deg = arguments.roll_deg;
     walk.roll_speed_sigma_deg = arguments.roll_speed_deg;
-    if (arguments.distance_range.size() != 2) {
-      ThrowError("--distance-range must be two numbers MIN,MAX (object radii)");
+    if (!arguments.distance_range.empty()) {
+      walk.distance_min_radii = arguments.distance_range[0];
+      walk.distance_max_radii = arguments.distance_range[1];
     }
-    walk.distance_min_radii = arguments.distance_range[0];
-    walk.distance_max_radii = arguments.distance_range[1];
     if (arguments.distance_option->count() > 0) {
       walk.start_distance_radii = arguments.distance_radii;
     }
@@ -243,16 +303,20 @@ void AddSynthCommand(CLI::App& app) {
       ->add_option("--trajectory", arguments->trajectory,
                    "orbit: a great circle around the object at a constant step, distance and "
                    "roll (the paper's flight); walk: a smooth seeded random walk of view, roll "
-                   "and distance")
-      ->check(CLI::IsMember({"orbit", "walk"}))
+                   "and distance; handheld: the object turned by hand in front of a static "
+                   "camera (bursts of rotation, pauses, reversals, rare cuts, wandering distance "
+                   "and position in the image; see --speed-range ... --max-off-axis-deg)")
+      ->check(CLI::IsMember({"orbit", "walk", "handheld"}))
       ->capture_default_str();
-  command->add_option("--frames", arguments->frames,
-                      "Frames to render (0 = default: orbit one full loop, 360 / step; walk 360)");
-  command
-      ->add_option("--step-deg", arguments->step_deg,
-                   "orbit: degrees along the circle per frame; walk: spread of the angular "
-                   "speed, degrees per frame (per axis, steps capped at 3x)")
-      ->capture_default_str();
+  command->add_option(
+      "--frames", arguments->frames,
+      "Frames to render (0 = default: orbit one full loop, 360 / step; walk and handheld 360)");
+  arguments->step_option =
+      command
+          ->add_option("--step-deg", arguments->step_deg,
+                       "orbit: degrees along the circle per frame; walk: spread of the angular "
+                       "speed, degrees per frame (per axis, steps capped at 3x)")
+          ->capture_default_str();
   arguments->tilt_option =
       command
           ->add_option("--tilt-deg", arguments->tilt_deg,
@@ -272,19 +336,47 @@ void AddSynthCommand(CLI::App& app) {
   arguments->range_option =
       command
           ->add_option("--distance-range", arguments->distance_range,
-                       "walk: smallest and largest distance, object radii, MIN,MAX")
+                       "walk and handheld: smallest and largest distance, object radii, MIN,MAX "
+                       "(default: walk 3,6; handheld 4,10)")
           ->delimiter(',')
-          ->expected(2)
+          ->expected(2);
+  arguments->roll_option =
+      command
+          ->add_option("--roll", arguments->roll_deg,
+                       "Camera roll about its optical axis, degrees (orbit: constant; walk: start)")
           ->capture_default_str();
-  command
-      ->add_option("--roll", arguments->roll_deg,
-                   "Camera roll about its optical axis, degrees (orbit: constant; walk: start)")
-      ->capture_default_str();
   arguments->roll_speed_option =
       command
           ->add_option("--roll-speed-deg", arguments->roll_speed_deg,
                        "walk: spread of the roll speed, degrees per frame")
           ->capture_default_str();
+  HandheldOptions& hand = arguments->handheld;
+  arguments->handheld_options = {
+      command
+          ->add_option("--speed-range", arguments->speed_range,
+                       "handheld: range of the rotation speeds of the hand's movements, degrees "
+                       "per frame, MIN,MAX (MAX <= 45)")
+          ->delimiter(',')
+          ->expected(2)
+          ->capture_default_str(),
+      command
+          ->add_option("--pause-probability", hand.pause_probability,
+                       "handheld: probability that a movement (3 to 40 frames) is a pause, 0..1")
+          ->capture_default_str(),
+      command
+          ->add_option("--reverse-probability", hand.reverse_probability,
+                       "handheld: probability that a movement turns the object back, 0..1")
+          ->capture_default_str(),
+      command
+          ->add_option("--cut-probability", hand.cut_probability,
+                       "handheld: probability per frame of a cut (the view jumps to a random "
+                       "view and roll), 0..1")
+          ->capture_default_str(),
+      command
+          ->add_option("--max-off-axis-deg", hand.max_off_axis_deg,
+                       "handheld: largest angle of the object centre from the optical axis, "
+                       "degrees (the object is also kept inside the image)")
+          ->capture_default_str()};
   command
       ->add_option("--switch-at", arguments->switch_at,
                    "Frames where the next model takes over, F1,F2,... (one per model after the "
@@ -364,7 +456,8 @@ void AddSynthCommand(CLI::App& app) {
           ->capture_default_str()};
   command
       ->add_option("--seed", arguments->seed,
-                   "Seed of the walk, the degradations and the colour frames' texture and noise")
+                   "Seed of the walk and handheld trajectories, the degradations and the colour "
+                   "frames' texture and noise")
       ->capture_default_str();
   command->add_option("--threads", arguments->threads, "Worker threads (0 = all cores)")
       ->capture_default_str();

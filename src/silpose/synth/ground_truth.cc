@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <string_view>
 
 #include "silpose/util/error.h"
@@ -12,12 +13,18 @@
 namespace silpose {
 namespace {
 
-constexpr std::array<const char*, 20> kColumns = {
-    "frame", "object", "view_x", "view_y", "view_z",   "roll_deg",   "r00",
-    "r01",   "r02",    "r10",    "r11",    "r12",      "r20",        "r21",
-    "r22",   "tx",     "ty",     "tz",     "distance", "degradation"};
+constexpr std::array<const char*, 24> kColumns = {
+    "frame",    "object",      "view_x",       "view_y",       "view_z",       "roll_deg",
+    "r00",      "r01",         "r02",          "r10",          "r11",          "r12",
+    "r20",      "r21",         "r22",          "tx",           "ty",           "tz",
+    "distance", "degradation", "centre_ray_x", "centre_ray_y", "centre_ray_z", "off_axis_deg"};
 constexpr size_t kRequiredColumns = 18;  // all but distance and degradation
 constexpr double kTolerance = 1e-4;
+constexpr size_t kNone = std::numeric_limits<size_t>::max();
+
+double OffAxisDeg(const Eigen::Vector3d& ray) {
+  return std::atan2(std::hypot(ray.x(), ray.y()), ray.z()) * 180.0 / std::numbers::pi;
+}
 
 // Shortest decimal form that reads back to the same double (-0 is written as 0).
 void AppendNumber(std::string* line, double value) {
@@ -100,7 +107,7 @@ class RowParser {
 
 const char* GroundTruthHeader() {
   return "frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,"
-         "distance,degradation";
+         "distance,degradation,centre_ray_x,centre_ray_y,centre_ray_z,off_axis_deg";
 }
 
 void WriteGroundTruth(const std::filesystem::path& path,
@@ -137,6 +144,12 @@ void WriteGroundTruth(const std::filesystem::path& path,
     AppendNumber(&text, frame.distance_in_radii);
     text += ',';
     text += FrameDegradationName(frame.degradation);
+    for (int i = 0; i < 3; ++i) {
+      text += ',';
+      AppendNumber(&text, frame.centre_ray_in_camera[i]);
+    }
+    text += ',';
+    AppendNumber(&text, OffAxisDeg(frame.centre_ray_in_camera));
     text += '\n';
   }
   file << text;
@@ -180,6 +193,13 @@ std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path)
   const size_t num_fields = header.size();
   const bool has_distance = column_of[18] != std::numeric_limits<size_t>::max();
   const bool has_degradation = column_of[19] != std::numeric_limits<size_t>::max();
+  const int ray_columns =
+      (column_of[20] != kNone) + (column_of[21] != kNone) + (column_of[22] != kNone);
+  if (ray_columns != 0 && ray_columns != 3) {
+    ThrowError(path.string(), ":1: centre_ray_x, centre_ray_y and centre_ray_z must come together");
+  }
+  const bool has_ray = ray_columns == 3;
+  const bool has_off_axis = column_of[23] != kNone;
 
   std::vector<GroundTruthFrame> frames;
   int blank_lines = 0;
@@ -227,6 +247,23 @@ std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path)
         row.Fail("column 'degradation': '" + std::string(name) + "' is none of none, missed, bad");
       }
     }
+    if (has_ray) {
+      for (int i = 0; i < 3; ++i) {
+        const size_t c = 20u + static_cast<size_t>(i);
+        frame.centre_ray_in_camera[i] = row.Number(column_of[c], kColumns[c]);
+      }
+      if (std::abs(frame.centre_ray_in_camera.norm() - 1.0) > kTolerance ||
+          !(frame.centre_ray_in_camera.z() > 0.0)) {
+        row.Fail(
+            "the centre ray (centre_ray_x, _y, _z) is not a unit vector in front of the camera");
+      }
+    }
+    if (has_off_axis) {
+      const double off_axis = row.Number(column_of[23], kColumns[23]);
+      if (std::abs(off_axis - OffAxisDeg(frame.centre_ray_in_camera)) > 1e-3) {
+        row.Fail("column 'off_axis_deg' is not the angle of the centre ray from the optical axis");
+      }
+    }
     if (std::abs(frame.view_dir_in_object.norm() - 1.0) > kTolerance) {
       row.Fail("the view direction (view_x, view_y, view_z) is not a unit vector");
     }
@@ -235,8 +272,12 @@ std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path)
         rotation.determinant() < 0.0) {
       row.Fail("r00..r22 is not a rotation matrix");
     }
-    if ((frame.view_dir_in_object + rotation.row(2).transpose()).norm() > 10 * kTolerance) {
-      row.Fail("the view direction is not the camera's optical axis reversed (-r20, -r21, -r22)");
+    // The virtual camera's optical axis in the model frame is R^T u (R.row(2) for u = e_z).
+    if ((frame.view_dir_in_object + rotation.transpose() * frame.centre_ray_in_camera).norm() >
+        10 * kTolerance) {
+      row.Fail(
+          "the view direction is not the camera's optical axis reversed (-r20, -r21, -r22, or "
+          "-R^T u with a centre ray u)");
     }
     frames.push_back(std::move(frame));
   }

@@ -2,12 +2,15 @@
 // groundtruth.csv of a synthetic sequence folder (DESIGN.md, "synth DIR"): one row per frame,
 // header first, with the columns
 //   frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,
-//   distance,degradation
-// `object` is the model's file stem; (view, roll) as in geometry/view_frame.h; r.. and t.. the
-// 6-DOF pose camera_from_object (x_in_camera = R * x_in_object + t, OpenCV camera frame, t in model
+//   distance,degradation,centre_ray_x,centre_ray_y,centre_ray_z,off_axis_deg
+// `object` is the model's file stem; (view, roll) as in geometry/view_frame.h, of the virtual
+// camera looking straight at the object centre (synth/trajectory.h); r.. and t.. the true 6-DOF
+// pose camera_from_object (x_in_camera = R * x_in_object + t, OpenCV camera frame, t in model
 // units); `distance` the camera distance from the object centre in object radii; `degradation`
-// none|missed|bad (synth/degradation.h). Numbers are written in the shortest form that reads back
-// to the same double.
+// none|missed|bad (synth/degradation.h); centre_ray_* the unit ray u (camera frame) along which the
+// object centre is seen, and off_axis_deg its angle from the optical axis (R = Q R_on with Q the
+// minimal rotation taking (0, 0, 1) to u; on the axis u = (0, 0, 1) and R = R_on). Numbers are
+// written in the shortest form that reads back to the same double.
 
 #include <Eigen/Core>
 #include <filesystem>
@@ -33,6 +36,9 @@ struct GroundTruthFrame {
   Rigid3 camera_from_object;
   /// Camera distance from the object centre, object radii; NaN if the file has no such column.
   double distance_in_radii = 0.0;
+  /// Unit ray, camera frame, along which the object centre is seen; (0, 0, 1) (on the optical
+  /// axis) if the file has no such columns.
+  Eigen::Vector3d centre_ray_in_camera = Eigen::Vector3d::UnitZ();
   /// kNone if the file has no such column.
   FrameDegradation degradation = FrameDegradation::kNone;
 };
@@ -46,13 +52,16 @@ void WriteGroundTruth(const std::filesystem::path& path,
                       const std::vector<GroundTruthFrame>& frames);
 
 /// Reads groundtruth.csv. Columns are found by their header names, in any order; extra columns are
-/// ignored; `distance` and `degradation` are optional (files that only have DESIGN.md's columns
-/// read fine). Accepts CRLF line ends and blank lines at the end. Throws silpose::Error naming the
-/// file, and the line where it applies, if the file is missing, a required column is missing, a
-/// row has the wrong number of fields, a number does not parse or is not finite, a frame number is
-/// negative or not larger than the previous row's, an object name is empty, a view direction is
-/// not of unit length, R is not a rotation, the view direction is not R's optical axis reversed
-/// (-R.row(2)), or a degradation is unknown (tolerances 1e-4, for files written with 6 decimals).
+/// ignored; `distance`, `degradation` and the centre ray columns are optional (files that only have
+/// DESIGN.md's columns read fine; centre_ray_x, _y, _z come together, off_axis_deg is checked
+/// against them when present). Accepts CRLF line ends and blank lines at the end. Throws
+/// silpose::Error naming the file, and the line where it applies, if the file is missing, a
+/// required column is missing, a row has the wrong number of fields, a number does not parse or is
+/// not finite, a frame number is negative or not larger than the previous row's, an object name is
+/// empty, a view direction is not of unit length, the centre ray is not a unit vector in front of
+/// the camera or disagrees with off_axis_deg (tolerance 1e-3 degrees), R is not a rotation, the
+/// view direction is not the virtual camera's optical axis reversed (-R^T u, which is -R.row(2) on
+/// the axis), or a degradation is unknown (tolerances 1e-4, for files written with 6 decimals).
 std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path);
 
 }  // namespace silpose

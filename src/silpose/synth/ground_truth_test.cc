@@ -6,11 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "silpose/geometry/view_frame.h"
+#include "silpose/pose/pose_from_silhouette.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -47,6 +49,12 @@ std::vector<GroundTruthFrame> RandomFrames(int count) {
     frame.camera_from_object = CameraFromObjectAtView(
         view, frame.roll_deg, frame.distance_in_radii * 0.37, Eigen::Vector3d(0.1, -0.2, 0.3));
     frame.view_dir_in_object = view.normalized();
+    if (k % 4 != 0) {  // off the optical axis: R = Q R_on
+      frame.centre_ray_in_camera =
+          Eigen::Vector3d(0.2 * normal(engine), 0.2 * normal(engine), 1.0).normalized();
+      frame.camera_from_object.rotation =
+          RotationFromOpticalAxisTo(frame.centre_ray_in_camera) * frame.camera_from_object.rotation;
+    }
     frame.degradation = static_cast<FrameDegradation>(k % 3);
     frames.push_back(frame);
   }
@@ -62,6 +70,7 @@ void ExpectSame(const GroundTruthFrame& a, const GroundTruthFrame& b) {
   EXPECT_EQ(a.camera_from_object.translation, b.camera_from_object.translation);
   EXPECT_EQ(a.distance_in_radii, b.distance_in_radii);
   EXPECT_EQ(a.degradation, b.degradation);
+  EXPECT_EQ(a.centre_ray_in_camera, b.centre_ray_in_camera);
 }
 
 TEST(GroundTruth, WriteThenReadGivesExactlyTheSameFrames) {
@@ -73,7 +82,7 @@ TEST(GroundTruth, WriteThenReadGivesExactlyTheSameFrames) {
   std::getline(text, header);
   EXPECT_EQ(header,
             "frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,"
-            "tz,distance,degradation");
+            "tz,distance,degradation,centre_ray_x,centre_ray_y,centre_ray_z,off_axis_deg");
   const std::vector<GroundTruthFrame> read = ReadGroundTruth(file.path());
   ASSERT_EQ(read.size(), frames.size());
   for (size_t k = 0; k < frames.size(); ++k) ExpectSame(read[k], frames[k]);
@@ -97,6 +106,7 @@ TEST(GroundTruth, ReadsTheDesignColumnsInAnyOrderWithExtras) {
   EXPECT_EQ(frames[0].camera_from_object.translation, Eigen::Vector3d(0, 0, 3));
   EXPECT_TRUE(std::isnan(frames[0].distance_in_radii));
   EXPECT_EQ(frames[1].degradation, FrameDegradation::kNone);
+  EXPECT_EQ(frames[1].centre_ray_in_camera, Eigen::Vector3d::UnitZ());  // on the axis
 }
 
 // The error message when reading `body` after a valid header.
@@ -115,7 +125,10 @@ std::string ReadError(const std::string& name, const std::string& text) {
 }
 
 TEST(GroundTruth, CorruptFilesGiveAnErrorNamingFileAndLine) {
-  const std::string header = std::string(GroundTruthHeader()) + "\n";
+  // Files without the centre ray columns (written before they existed) are checked alike.
+  const std::string header =
+      "frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,"
+      "distance,degradation\n";
   const std::string good = "0,bunny,1,0,0,0,0,1,0,0,0,-1,-1,0,0,0,0,3,3,none\n";
   const auto row_with = [](const std::string& view_x, const std::string& degradation) {
     return "1,bunny," + view_x + ",0,0,0,0,1,0,0,0,-1,-1,0,0,0,0,3,3," + degradation + "\n";
@@ -175,6 +188,37 @@ TEST(GroundTruth, ObjectNamesThatCsvCannotHoldAreRefused) {
   std::vector<GroundTruthFrame> frames = RandomFrames(1);
   frames[0].object = "a,b";
   EXPECT_THROW(WriteGroundTruth(file.path(), frames), Error);
+}
+
+TEST(GroundTruth, CentreRayColumnsAreCheckedAgainstThePose) {
+  const std::string header = std::string(GroundTruthHeader()) + "\n";
+  // Centre 0.6,0,0.8 (36.87 degrees to the right), virtual camera at view +X, roll 0:
+  // R_on rows (0,1,0), (0,0,-1), (-1,0,0); Q turns about the y axis by 36.87 degrees.
+  const double c = 0.8;
+  const double s = 0.6;
+  const Eigen::Matrix3d q = (Eigen::Matrix3d() << c, 0, s, 0, 1, 0, -s, 0, c).finished();
+  const Eigen::Matrix3d r_on = CameraFromObjectRotation(Eigen::Vector3d::UnitX(), 0.0);
+  const Eigen::Matrix3d r = q * r_on;
+  const auto row = [&](const Eigen::Vector3d& view, const std::string& ray) {
+    std::string text = "0,bunny," + std::to_string(view.x()) + "," + std::to_string(view.y()) +
+                       "," + std::to_string(view.z()) + ",0";
+    for (int i = 0; i < 9; ++i) text += "," + std::to_string(r(i / 3, i % 3));
+    return text + ",1.8,0,2.4,3,none," + ray + "\n";
+  };
+  const std::string off_axis = std::to_string(std::atan2(0.6, 0.8) * 180.0 / std::numbers::pi);
+  const TempFile file("ray.csv");
+  file.Write(header + row(Eigen::Vector3d::UnitX(), "0.6,0,0.8," + off_axis));
+  const std::vector<GroundTruthFrame> frames = ReadGroundTruth(file.path());
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_LT((frames[0].centre_ray_in_camera - Eigen::Vector3d(0.6, 0, 0.8)).norm(), 1e-12);
+
+  // R's own optical axis is not the view: only with the ray does the row make sense.
+  std::string message = ReadError("no_ray.csv", header + row(Eigen::Vector3d::UnitX(), "0,0,1,0"));
+  EXPECT_NE(message.find("optical axis"), std::string::npos) << message;
+  message = ReadError("angle.csv", header + row(Eigen::Vector3d::UnitX(), "0.6,0,0.8,10"));
+  EXPECT_NE(message.find("off_axis_deg"), std::string::npos) << message;
+  message = ReadError("long.csv", header + row(Eigen::Vector3d::UnitX(), "0.6,0,0.9," + off_axis));
+  EXPECT_NE(message.find("centre ray"), std::string::npos) << message;
 }
 
 }  // namespace

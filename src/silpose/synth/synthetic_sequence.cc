@@ -8,12 +8,15 @@
 #include <cmath>
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/pose/lens_distortion.h"
+#include "silpose/pose/pose_from_silhouette.h"
 #include "silpose/render/shaded_renderer.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
@@ -96,6 +99,73 @@ void WriteColourFrame(const std::filesystem::path& path, const cv::Mat& image) {
   if (!written) ThrowError(path.string(), ": cannot write the frame");
 }
 
+// The largest canvas side, in image sides, for rendering a distorted camera's ideal image.
+constexpr double kMaxCanvasFactor = 3.0;
+
+// For a camera with distortion: the ideal pinhole camera of a canvas covering the undistorted
+// positions of all pixels (limited to kMaxCanvasFactor image sides), and the canvas position of
+// each pixel's centre.
+void MakeDistortionMaps(const PinholeCamera& camera, PinholeCamera* canvas, cv::Mat* map_x,
+                        cv::Mat* map_y) {
+  const int width = camera.width_px;
+  const int height = camera.height_px;
+  cv::Mat ideal_x(height, width, CV_64FC1);
+  cv::Mat ideal_y(height, width, CV_64FC1);
+  cv::Mat valid(height, width, CV_8UC1, cv::Scalar(0));
+  double low_x = 0.0;
+  double high_x = width - 1.0;
+  double low_y = 0.0;
+  double high_y = height - 1.0;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      Eigen::Vector2d ideal;
+      if (!PixelToIdealNormalized(camera, Eigen::Vector2d(u, v), &ideal)) continue;
+      const double x = camera.focal_x_px * ideal.x() + camera.principal_x_px;
+      const double y = camera.focal_y_px * ideal.y() + camera.principal_y_px;
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      ideal_x.at<double>(v, u) = x;
+      ideal_y.at<double>(v, u) = y;
+      valid.at<uchar>(v, u) = 1;
+      low_x = std::min(low_x, x);
+      high_x = std::max(high_x, x);
+      low_y = std::min(low_y, y);
+      high_y = std::max(high_y, y);
+    }
+  }
+  // Canvas: the ideal positions' bounding box (whole pixels, one of margin), limited in size.
+  const double limit_x = (kMaxCanvasFactor - 1.0) / 2.0 * width;
+  const double limit_y = (kMaxCanvasFactor - 1.0) / 2.0 * height;
+  const int left = static_cast<int>(std::ceil(std::min(-low_x, limit_x))) + 1;
+  const int top = static_cast<int>(std::ceil(std::min(-low_y, limit_y))) + 1;
+  const int right = static_cast<int>(std::ceil(std::min(high_x - (width - 1.0), limit_x))) + 1;
+  const int bottom = static_cast<int>(std::ceil(std::min(high_y - (height - 1.0), limit_y))) + 1;
+  *canvas = camera;
+  canvas->distortion = {0, 0, 0, 0, 0};
+  canvas->width_px = width + left + right;
+  canvas->height_px = height + top + bottom;
+  canvas->principal_x_px = camera.principal_x_px + left;
+  canvas->principal_y_px = camera.principal_y_px + top;
+  map_x->create(height, width, CV_32FC1);
+  map_y->create(height, width, CV_32FC1);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      float x = -1.0F;
+      float y = -1.0F;
+      if (valid.at<uchar>(v, u) != 0) {
+        const double cx = ideal_x.at<double>(v, u) + left;
+        const double cy = ideal_y.at<double>(v, u) + top;
+        if (cx >= -0.5 && cy >= -0.5 && cx < canvas->width_px - 0.5 &&
+            cy < canvas->height_px - 0.5) {
+          x = static_cast<float>(cx);
+          y = static_cast<float>(cy);
+        }
+      }
+      map_x->at<float>(v, u) = x;
+      map_y->at<float>(v, u) = y;
+    }
+  }
+}
+
 }  // namespace
 
 PinholeCamera DefaultSynthCamera() { return PinholeCamera::Centered(640, 480, 525.0); }
@@ -143,7 +213,14 @@ SyntheticSequence::SyntheticSequence(std::vector<TriangleMesh> meshes,
                  meshes_.size(), " model(s) were given");
     }
   }
+  if (options_.trajectory.kind == TrajectoryKind::kHandheld &&
+      !options_.trajectory.handheld.camera) {
+    options_.trajectory.handheld.camera = options_.camera;
+  }
   trajectory_ = GenerateTrajectory(options_.trajectory);
+  if (HasDistortion(options_.camera)) {
+    MakeDistortionMaps(options_.camera, &canvas_camera_, &distortion_map_x_, &distortion_map_y_);
+  }
 
   const ColourOptions& colour = options_.colour;
   const size_t num_colours = colour.object_colours_bgr.size();
@@ -175,9 +252,20 @@ GroundTruthFrame SyntheticSequence::Truth(int index) const {
   truth.view_dir_in_object = step.view_dir_in_object;
   truth.roll_deg = step.roll_deg;
   truth.distance_in_radii = step.distance_in_radii;
-  truth.camera_from_object =
-      CameraFromObjectAtView(step.view_dir_in_object, step.roll_deg,
-                             step.distance_in_radii * radii_[object], centres_[object]);
+  truth.centre_ray_in_camera = step.centre_ray_in_camera;
+  const double distance = step.distance_in_radii * radii_[object];
+  if (step.centre_ray_in_camera == Eigen::Vector3d::UnitZ()) {
+    truth.camera_from_object =
+        CameraFromObjectAtView(step.view_dir_in_object, step.roll_deg, distance, centres_[object]);
+  } else {
+    // Off the axis: the virtual on-axis camera turned by Q (synth/trajectory.h).
+    const Eigen::Vector3d ray = step.centre_ray_in_camera.normalized();
+    const Eigen::Matrix3d rotation =
+        RotationFromOpticalAxisTo(ray) *
+        CameraFromObjectRotation(step.view_dir_in_object, step.roll_deg);
+    truth.camera_from_object.rotation = rotation;
+    truth.camera_from_object.translation = distance * ray - rotation * centres_[object];
+  }
   truth.degradation = ChooseFrameDegradation(options_.degradation, index);
   return truth;
 }
@@ -186,16 +274,38 @@ void SyntheticSequence::Generate(int index, SyntheticFrame* frame) const {
   frame->truth = Truth(index);
   const auto object = static_cast<size_t>(trajectory_[static_cast<size_t>(index)].object);
   const TriangleMesh& mesh = meshes_[object];
+  const bool distorted = !distortion_map_x_.empty();
   if (options_.colour.enabled) {
     // The shaded renderer's mask is RenderSilhouette's (same pixel rule): one pass for both.
     ShadedRenderOptions shading = options_.colour.shading;
     shading.base_colour_bgr = object_colours_[object];
-    shading.background = background_;
-    RenderShaded(mesh, options_.camera, frame->truth.camera_from_object, shading, &frame->colour,
-                 &frame->mask);
+    if (distorted) {
+      cv::Mat canvas_colour;
+      cv::Mat canvas_mask;
+      RenderShaded(mesh, canvas_camera_, frame->truth.camera_from_object, shading, &canvas_colour,
+                   &canvas_mask);
+      cv::Mat colour;
+      cv::remap(canvas_colour, colour, distortion_map_x_, distortion_map_y_, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar::all(0));
+      cv::remap(canvas_mask, frame->mask, distortion_map_x_, distortion_map_y_, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(0));
+      background_.copyTo(frame->colour);
+      colour.copyTo(frame->colour, frame->mask);
+    } else {
+      shading.background = background_;
+      RenderShaded(mesh, options_.camera, frame->truth.camera_from_object, shading, &frame->colour,
+                   &frame->mask);
+    }
     ApplyCameraEffects(options_.colour, index, &frame->colour);
   } else {
-    RenderSilhouette(mesh, options_.camera, frame->truth.camera_from_object, &frame->mask);
+    if (distorted) {
+      cv::Mat canvas_mask;
+      RenderSilhouette(mesh, canvas_camera_, frame->truth.camera_from_object, &canvas_mask);
+      cv::remap(canvas_mask, frame->mask, distortion_map_x_, distortion_map_y_, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(0));
+    } else {
+      RenderSilhouette(mesh, options_.camera, frame->truth.camera_from_object, &frame->mask);
+    }
     frame->colour.release();
   }
   frame->rendered_area_px = cv::countNonZero(frame->mask);

@@ -10,13 +10,22 @@
 //   DIR/groundtruth.csv                     one row per frame (synth/ground_truth.h)
 //
 // Frame k of a sequence shows object o = trajectory[k].object, with the camera at
-//   camera_from_object = CameraFromObjectAtView(view_dir, roll_deg,
-//                                               distance_in_radii * mesh.Radius(), mesh.Centre())
-// (geometry/view_frame.h): the camera looks at the object centre, which therefore projects to the
-// principal point. The colour frame shows the same pose, shaded over the sequence's background;
+//   camera_from_object: R = Q * CameraFromObjectRotation(view_dir, roll_deg),  t = D * u - R * c
+// (synth/trajectory.h): u = trajectory[k].centre_ray_in_camera, Q the minimal rotation taking
+// (0, 0, 1) to u, D = distance_in_radii * mesh.Radius(), c = mesh.Centre(). For orbit and walk,
+// u = (0, 0, 1) and this is CameraFromObjectAtView(view_dir, roll_deg, D, c)
+// (geometry/view_frame.h): the camera looks at the object centre, which projects to the principal
+// point. The handheld trajectory moves the object centre off the axis, to the ideal image position
+// (u_x/u_z, u_y/u_z). The colour frame shows the same pose, shaded over the sequence's background;
 // the degradations only concern the masks. Every frame is generated independently of the others
 // from the options alone, so frames can be rendered in any order and on any number of threads with
 // identical results.
+//
+// Lens distortion. If the camera has distortion coefficients, masks and colour frames are those of
+// the distorted image: each frame is rendered with the ideal pinhole camera (same intrinsics, on a
+// canvas large enough for the undistorted image), then each output pixel takes the nearest canvas
+// pixel at its undistorted position (pose/lens_distortion.h), for the mask and the object's colour
+// alike; the background image is not distorted.
 
 #include <filesystem>
 #include <functional>
@@ -68,9 +77,10 @@ struct SyntheticFrame {
 class SyntheticSequence {
  public:
   /// Takes the models (object i of the trajectory is meshes[i]; names, the file stems, must be
-  /// non-empty and unique), computes the trajectory and, with colour, the background. Throws
-  /// silpose::Error if the options are invalid, there is no mesh, a mesh has no extent, names
-  /// clash, an object switch names an object beyond the list, or there are object colours but
+  /// non-empty and unique), computes the trajectory (a handheld trajectory without a camera of its
+  /// own keeps the object inside this sequence's camera image) and, with colour, the background.
+  /// Throws silpose::Error if the options are invalid, there is no mesh, a mesh has no extent,
+  /// names clash, an object switch names an object beyond the list, or there are object colours but
   /// neither one nor one per model.
   SyntheticSequence(std::vector<TriangleMesh> meshes, const SequenceOptions& options);
 
@@ -104,6 +114,11 @@ class SyntheticSequence {
   std::vector<Eigen::Vector3d> object_colours_;
   SequenceOptions options_;
   cv::Mat background_;
+  // With lens distortion: the ideal pinhole camera of the render canvas, and for each output pixel
+  // the canvas pixel to take (CV_32FC1 x and y; -1 outside the canvas). Empty without distortion.
+  PinholeCamera canvas_camera_;
+  cv::Mat distortion_map_x_;
+  cv::Mat distortion_map_y_;
   std::vector<TrajectoryFrame> trajectory_;
 };
 

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
@@ -14,6 +16,9 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/pose/lens_distortion.h"
+#include "silpose/pose/pose_from_silhouette.h"
+#include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -265,6 +270,184 @@ TEST(SyntheticSequence, ReportsObjectsOutOfViewOrCutByTheBorder) {
       WriteSequence(SyntheticSequence({Box("box", {0, 0, 0}, {1, 1, 1})}, options), folder.path());
   EXPECT_EQ(summary.touching_border, 2);
   EXPECT_NE(summary.BriefReport().find("cut by the image border"), std::string::npos);
+}
+
+// ----- handheld and lens distortion -------------------------------------------------------------
+
+double IoU(const cv::Mat& a, const cv::Mat& b) {
+  const int intersection = cv::countNonZero(a & b);
+  const int union_area = cv::countNonZero(a | b);
+  return union_area > 0 ? static_cast<double>(intersection) / union_area : 1.0;
+}
+
+Eigen::Matrix3d Intrinsics(const PinholeCamera& camera) {
+  Eigen::Matrix3d k;
+  k << camera.focal_x_px, 0, camera.principal_x_px, 0, camera.focal_y_px, camera.principal_y_px, 0,
+      0, 1;
+  return k;
+}
+
+// A sphere of radius 1 around (1, 2, 3), latitude-longitude triangles (96 x 48).
+TriangleMesh Sphere() {
+  TriangleMesh mesh;
+  mesh.name = "sphere";
+  constexpr int kRings = 48;
+  constexpr int kSectors = 96;
+  for (int i = 0; i <= kRings; ++i) {
+    const double polar = std::numbers::pi * i / kRings;
+    for (int j = 0; j < kSectors; ++j) {
+      const double azimuth = 2.0 * std::numbers::pi * j / kSectors;
+      mesh.vertices.emplace_back(static_cast<float>(1.0 + std::sin(polar) * std::cos(azimuth)),
+                                 static_cast<float>(2.0 + std::sin(polar) * std::sin(azimuth)),
+                                 static_cast<float>(3.0 + std::cos(polar)));
+    }
+  }
+  for (int i = 0; i < kRings; ++i) {
+    for (int j = 0; j < kSectors; ++j) {
+      const int a = i * kSectors + j;
+      const int b = i * kSectors + (j + 1) % kSectors;
+      mesh.triangles.push_back({a, a + kSectors, b + kSectors});
+      mesh.triangles.push_back({a, b + kSectors, b});
+    }
+  }
+  return mesh;
+}
+
+SequenceOptions Handheld(int frames, uint64_t seed) {
+  SequenceOptions options;
+  options.trajectory.kind = TrajectoryKind::kHandheld;
+  options.trajectory.num_frames = frames;
+  options.trajectory.handheld.seed = seed;
+  options.trajectory.handheld.off_axis_speed_deg = 1.5;  // far off the axis within a few frames
+  return options;
+}
+
+TEST(SyntheticSequence, HandheldFramesAreRenderedAtTheirOffAxisPose) {
+  const SequenceOptions options = Handheld(40, 3);
+  const TriangleMesh cube = Box("cube", {0, 0, 0}, {2, 2, 2});
+  const SyntheticSequence sequence({cube}, options);
+  ASSERT_TRUE(sequence.options().trajectory.handheld.camera.has_value());  // its own camera
+  const PinholeCamera& camera = sequence.camera();
+  const Eigen::Vector3d centre = cube.Centre();
+  double widest_deg = 0.0;
+  for (int k = 0; k < sequence.num_frames(); k += 3) {
+    const SyntheticFrame frame = sequence.Generate(k);
+    const GroundTruthFrame& truth = frame.truth;
+    const Rigid3& pose = truth.camera_from_object;
+    const Eigen::Vector3d u = truth.centre_ray_in_camera;
+    EXPECT_EQ(u, sequence.trajectory()[static_cast<size_t>(k)].centre_ray_in_camera);
+    widest_deg = std::max(widest_deg, std::acos(u.z()) * 180.0 / std::numbers::pi);
+    // The object centre lies on the ray, at the distance; the virtual camera's axis is the view.
+    const Eigen::Vector3d centre_in_camera = pose * centre;
+    EXPECT_LT((centre_in_camera - truth.distance_in_radii * cube.Radius() * u).norm(), 1e-9);
+    EXPECT_LT((pose.rotation.transpose() * u + truth.view_dir_in_object).norm(), 1e-9);
+    ASSERT_GT(frame.rendered_area_px, 0) << "frame " << k;
+    EXPECT_FALSE(frame.touches_border) << "frame " << k;
+    // The image is the virtual on-axis camera's image turned by Q: warping the on-axis rendering
+    // by the homography K Q K^-1 gives the frame's mask.
+    cv::Mat on_axis;
+    RenderSilhouette(cube, camera,
+                     CameraFromObjectAtView(truth.view_dir_in_object, truth.roll_deg,
+                                            truth.distance_in_radii * cube.Radius(), centre),
+                     &on_axis);
+    const Eigen::Matrix3d k_matrix = Intrinsics(camera);
+    const Eigen::Matrix3d homography = k_matrix * RotationFromOpticalAxisTo(u) * k_matrix.inverse();
+    cv::Mat h(3, 3, CV_64F);
+    for (int i = 0; i < 9; ++i) h.at<double>(i / 3, i % 3) = homography(i / 3, i % 3);
+    cv::Mat warped;
+    cv::warpPerspective(on_axis, warped, h, on_axis.size(), cv::INTER_NEAREST);
+    EXPECT_GT(IoU(warped, frame.mask), 0.97) << "frame " << k;
+  }
+  EXPECT_GT(widest_deg, 8.0);
+}
+
+TEST(SyntheticSequence, HandheldSilhouetteOfASphereIsWhereItsTruePoseProjectsIt) {
+  // A sphere seen off the axis at angle theta, of angular radius alpha = asin(1 / D): its image is
+  // an ellipse centred at f (tan(theta + alpha) + tan(theta - alpha)) / 2 from the principal
+  // point, towards the centre's image.
+  const TriangleMesh sphere = Sphere();
+  const SyntheticSequence sequence({sphere}, Handheld(60, 5));
+  const PinholeCamera& camera = sequence.camera();
+  int off_axis_frames = 0;
+  for (int k = 0; k < sequence.num_frames(); k += 4) {
+    const SyntheticFrame frame = sequence.Generate(k);
+    const Eigen::Vector3d u = frame.truth.centre_ray_in_camera;
+    const double theta = std::acos(u.z());
+    const double alpha = std::asin(sphere.Radius() * 0.9995 /  // the facets' mean radius
+                                   (frame.truth.distance_in_radii * sphere.Radius()));
+    const double radial = (std::tan(theta + alpha) + std::tan(theta - alpha)) / 2.0;
+    const Eigen::Vector2d direction =
+        theta > 0.0 ? Eigen::Vector2d(u.x(), u.y()).normalized() : Eigen::Vector2d(1, 0);
+    const Eigen::Vector2d expected = Eigen::Vector2d(camera.principal_x_px, camera.principal_y_px) +
+                                     camera.focal_x_px * radial * direction;
+    const cv::Moments moments = cv::moments(frame.mask, true);
+    ASSERT_GT(moments.m00, 0.0);
+    const Eigen::Vector2d centroid(moments.m10 / moments.m00, moments.m01 / moments.m00);
+    EXPECT_LT((centroid - expected).norm(), 1.0) << "frame " << k;
+    // ... which is not the centre's own image, the further off the axis the more.
+    off_axis_frames += theta > 10.0 * std::numbers::pi / 180.0;
+    // The true pose puts the sphere's centre on the ray.
+    const Eigen::Vector3d centre = frame.truth.camera_from_object * sphere.Centre();
+    EXPECT_LT((centre.normalized() - u).norm(), 1e-9);
+  }
+  EXPECT_GT(off_axis_frames, 3);
+}
+
+TEST(SyntheticSequence, DistortedCamerasGiveDistortedMasksAndColourFrames) {
+  SequenceOptions options = Handheld(12, 8);
+  options.camera = PinholeCamera::Centered(320, 240, 262.5);
+  options.camera.distortion = {-0.25, 0.08, 0.001, -0.001, 0.0};
+  options.colour.enabled = true;
+  options.trajectory.handheld.distance_min_radii = 3.0;
+  options.trajectory.handheld.distance_max_radii = 4.0;
+  const SyntheticSequence distorted({Bunny()}, options);
+  PinholeCamera ideal_camera = options.camera;
+  ideal_camera.distortion = {0, 0, 0, 0, 0};
+  double least_ideal_iou = 1.0;
+  for (int k = 0; k < distorted.num_frames(); k += 2) {
+    const SyntheticFrame frame = distorted.Generate(k);
+    ASSERT_GT(frame.rendered_area_px, 500) << "frame " << k;
+    cv::Mat ideal;
+    RenderSilhouette(Bunny(), ideal_camera, frame.truth.camera_from_object, &ideal);
+    // Forward check: each ideal object pixel, moved by the lens model, lands on the mask.
+    cv::Mat expected(ideal.size(), CV_8UC1, cv::Scalar(0));
+    int inside = 0;
+    int total = 0;
+    for (int v = 0; v < ideal.rows; ++v) {
+      for (int x = 0; x < ideal.cols; ++x) {
+        if (ideal.at<uchar>(v, x) == 0) continue;
+        const Eigen::Vector3d ray((x - ideal_camera.principal_x_px) / ideal_camera.focal_x_px,
+                                  (v - ideal_camera.principal_y_px) / ideal_camera.focal_y_px, 1.0);
+        const Eigen::Vector2d pixel = ProjectDistorted(options.camera, ray);
+        const int px = static_cast<int>(std::lround(pixel.x()));
+        const int py = static_cast<int>(std::lround(pixel.y()));
+        if (px < 0 || py < 0 || px >= ideal.cols || py >= ideal.rows) continue;
+        ++total;
+        // Within a pixel of the mask (nearest-pixel sampling on both sides).
+        bool near = false;
+        for (int dy = -1; dy <= 1 && !near; ++dy) {
+          for (int dx = -1; dx <= 1 && !near; ++dx) {
+            const int qx = std::clamp(px + dx, 0, ideal.cols - 1);
+            const int qy = std::clamp(py + dy, 0, ideal.rows - 1);
+            near = frame.mask.at<uchar>(qy, qx) != 0;
+          }
+        }
+        inside += near;
+      }
+    }
+    ASSERT_GT(total, 0);
+    EXPECT_GT(static_cast<double>(inside) / total, 0.995) << "frame " << k;
+    // Barrel distortion shrinks the silhouette towards the centre.
+    EXPECT_LT(frame.rendered_area_px, cv::countNonZero(ideal)) << "frame " << k;
+    least_ideal_iou = std::min(least_ideal_iou, IoU(ideal, frame.mask));
+    // The colour frame shows the object exactly on the (distorted) mask, the background elsewhere.
+    cv::Mat changed;
+    cv::absdiff(frame.colour, distorted.background(), changed);
+    cv::cvtColor(changed, changed, cv::COLOR_BGR2GRAY);
+    EXPECT_EQ(cv::countNonZero(changed & ~frame.mask), 0) << "frame " << k;
+    EXPECT_GT(cv::countNonZero(changed & frame.mask), frame.rendered_area_px * 8 / 10);
+  }
+  EXPECT_LT(least_ideal_iou, 0.95);  // the distortion matters
 }
 
 }  // namespace

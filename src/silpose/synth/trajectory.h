@@ -4,17 +4,32 @@
 // geometry/view_frame.h (view_dir_in_object: unit vector from the object centre towards the
 // camera, model frame; roll about the optical axis relative to the model's +Z seen as "up").
 //
-// Two kinds:
+// Three kinds:
 //  - orbit: the paper's flight around the object (section 5): the camera moves along a great circle
 //    of the view sphere by a fixed angle per frame, at a constant distance and a constant roll.
 //  - walk: a smooth random walk of view direction, roll and distance, driven by a seeded
 //    std::mt19937_64 and deterministic for a seed.
+//  - handheld: an object turned by hand in front of a static camera: bursts of rotation at varying
+//    speeds about a slowly wandering axis, pauses, reversals and rare cuts, while the distance and
+//    the object's position in the image wander (HandheldOptions). Seeded, deterministic.
+//
+// Off-axis frames. view_dir_in_object and roll_deg always describe the *virtual* camera that looks
+// straight at the object centre c: its rotation is R_on = CameraFromObjectRotation(view_dir,
+// roll_deg) (geometry/view_frame.h). The real camera sees the object centre along the unit ray
+// u = centre_ray_in_camera (OpenCV camera frame); with Q the minimal rotation taking the optical
+// axis (0, 0, 1) to u (RotationFromOpticalAxisTo, pose/pose_from_silhouette.h) and D the distance
+// in model units, the real pose is
+//   camera_from_object: R = Q * R_on,  t = D * u - R * c.
+// For u = (0, 0, 1) (orbit, walk) Q is the identity and the object centre projects to the
+// principal point.
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "silpose/geometry/pinhole_camera.h"
 
 namespace silpose {
 
@@ -28,6 +43,12 @@ struct TrajectoryFrame {
   double roll_deg = 0.0;
   /// Distance from the object centre to the camera centre, in object radii (> 1).
   double distance_in_radii = 3.0;
+  /// Unit vector, OpenCV camera frame, along which the camera sees the object centre (see the top
+  /// of this file); (0, 0, 1): on the optical axis.
+  Eigen::Vector3d centre_ray_in_camera = Eigen::Vector3d::UnitZ();
+  /// True if the view jumped at this frame (a cut of the handheld trajectory): the frame does not
+  /// continue the motion of the previous one. Always false for orbit and walk.
+  bool cut = false;
 };
 
 /// The orbit: a great circle of the view sphere. The circle's plane is the equator (the model's XY
@@ -100,15 +121,78 @@ struct WalkOptions {
   bool Check(std::string* error = nullptr) const;
 };
 
+/// The hand-held object. The virtual camera's orientation relative to the object (R_on, see the
+/// top of this file) turns each frame about an axis fixed in the camera frame, by the signed speed
+/// of that frame: R_on(k+1) = Rot(axis_k, speed_k) * R_on(k), so view direction and roll change
+/// together and nothing special happens near the poles (view and roll are read off R_on).
+///  - Speed profile: consecutive segments of segment_min_frames..segment_max_frames frames
+///  (uniform).
+///    Each segment has a target speed: 0 with pause_probability (a pause), else uniform in
+///    [speed_min_deg, speed_max_deg], turning back (negative: a reversal of the previous turning
+///    direction) with reverse_probability. The speed approaches the target by at most
+///    acceleration_deg per frame, so it changes smoothly (a reversal slows down, stops and turns).
+///  - Axis: a unit vector in the camera frame doing a smooth random walk on the sphere, turning by
+///    about axis_wander_deg per frame.
+///  - Cuts: with cut_probability per frame the orientation jumps to a uniformly random one (view
+///    and roll), TrajectoryFrame::cut is set, and a new segment starts.
+///  - Distance: a smooth random walk of log(distance) within [distance_min_radii,
+///    distance_max_radii] (reflected at the limits), velocity spread distance_sigma per frame.
+///  - Position in the image: the object centre's ray u (TrajectoryFrame::centre_ray_in_camera)
+///    wanders smoothly (its normalised image position (u_x/u_z, u_y/u_z) has a velocity of spread
+///    off_axis_speed_deg per frame), at most max_off_axis_deg from the optical axis. With a
+///    `camera`, the offset is also shrunk (towards the optical axis) as far as needed for the
+///    object's bounding sphere to project inside the image (lens distortion included); where even
+///    the centred sphere does not fit (too close for the camera), the object is centred.
+/// The first orientation is uniformly random; the first distance is uniform in log(distance); the
+/// first offset is random within the allowed region. All draws come from std::mt19937_64(seed).
+struct HandheldOptions {
+  /// Seed (std::mt19937_64; the same seed gives the same trajectory).
+  uint64_t seed = 1;
+  /// Range of the segments' rotation speeds, degrees per frame (0 <= min <= max <= 45).
+  double speed_min_deg = 2.0;
+  double speed_max_deg = 15.0;
+  /// Largest change of the rotation speed from one frame to the next, degrees per frame per frame
+  /// (> 0).
+  double acceleration_deg = 2.0;
+  /// Range of the segment lengths, frames (1 <= min <= max <= 10000).
+  int segment_min_frames = 3;
+  int segment_max_frames = 40;
+  /// Probability that a segment is a pause (target speed 0), in [0, 1].
+  double pause_probability = 0.15;
+  /// Probability that a moving segment turns back (reverses the turning direction), in [0, 1].
+  double reverse_probability = 0.25;
+  /// Probability per frame of a cut (a jump to a random view and roll), in [0, 1].
+  double cut_probability = 0.01;
+  /// How fast the rotation axis wanders, degrees per frame (spread of its angular velocity, >= 0,
+  /// <= 90).
+  double axis_wander_deg = 2.0;
+  /// Distance range, object radii (1 < min <= max).
+  double distance_min_radii = 4.0;
+  double distance_max_radii = 10.0;
+  /// Spread of the relative distance change per frame (of d(log distance)), in [0, 1].
+  double distance_sigma = 0.01;
+  /// Largest angle between the object centre's ray and the optical axis, degrees, in [0, 60].
+  double max_off_axis_deg = 25.0;
+  /// Spread of the speed of the object centre across the image, degrees per frame, in [0, 10].
+  double off_axis_speed_deg = 0.3;
+  /// Frame-to-frame correlation of the velocities of axis, distance and offset, in [0, 1).
+  double momentum = 0.95;
+  /// The camera whose image the object must stay in (see above); empty: only max_off_axis_deg
+  /// limits the offset. SyntheticSequence fills in its own camera when this is empty.
+  std::optional<PinholeCamera> camera;
+
+  bool Check(std::string* error = nullptr) const;
+};
+
 /// From frame `frame` on, the sequence shows object `object` (an index into its model list).
 struct ObjectSwitch {
   int frame = 0;
   int object = 0;
 };
 
-enum class TrajectoryKind { kOrbit, kWalk };
+enum class TrajectoryKind { kOrbit, kWalk, kHandheld };
 
-/// "orbit" / "walk".
+/// "orbit" / "walk" / "handheld".
 const char* TrajectoryKindName(TrajectoryKind kind);
 
 struct TrajectoryOptions {
@@ -117,6 +201,7 @@ struct TrajectoryOptions {
   int num_frames = 360;
   OrbitOptions orbit;
   WalkOptions walk;
+  HandheldOptions handheld;
   /// Object changes, by increasing frame (frames >= 0, objects >= 0). Frames before the first
   /// switch show object 0; empty: object 0 throughout.
   std::vector<ObjectSwitch> object_switches;
@@ -126,6 +211,12 @@ struct TrajectoryOptions {
 
 /// Generates the trajectory (deterministic). Throws silpose::Error if the options are invalid.
 std::vector<TrajectoryFrame> GenerateTrajectory(const TrajectoryOptions& options);
+
+/// Whether the bounding sphere of an object at `distance_in_radii` object radii along the unit ray
+/// `centre_ray_in_camera` (camera frame) projects entirely inside `camera`'s image (lens distortion
+/// included: the sphere must stay inside the undistorted image of the image border).
+bool BoundingSphereInImage(const PinholeCamera& camera, double distance_in_radii,
+                           const Eigen::Vector3d& centre_ray_in_camera);
 
 /// Switches that split `num_frames` frames into consecutive segments of `every_frames` frames
 /// showing objects 0, 1, ..., num_objects - 1, 0, 1, ... in turn. every_frames <= 0: one segment

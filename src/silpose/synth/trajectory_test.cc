@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -225,6 +226,283 @@ TEST(Walk, RandomStartsCoverTheSphere) {
     sum += GenerateTrajectory(Walk(1, seed))[0].view_dir_in_object;
   }
   EXPECT_LT(sum.norm() / 400.0, 0.15);
+}
+
+// ----- handheld ---------------------------------------------------------------------------------
+
+TrajectoryOptions Handheld(int frames, uint64_t seed) {
+  TrajectoryOptions options;
+  options.kind = TrajectoryKind::kHandheld;
+  options.num_frames = frames;
+  options.handheld.seed = seed;
+  return options;
+}
+
+Eigen::Matrix3d VirtualCamera(const TrajectoryFrame& frame) {
+  return CameraFromObjectRotation(frame.view_dir_in_object, frame.roll_deg);
+}
+
+// Rotation vector (camera frame, degrees) turning frame a's virtual camera into frame b's.
+Eigen::Vector3d TurnDeg(const TrajectoryFrame& a, const TrajectoryFrame& b) {
+  const Eigen::AngleAxisd turn(VirtualCamera(b) * VirtualCamera(a).transpose());
+  return turn.axis() * turn.angle() * 180.0 / std::numbers::pi;
+}
+
+double OffAxisDeg(const Eigen::Vector3d& ray) { return AngleDeg(ray, Eigen::Vector3d::UnitZ()); }
+
+TEST(Handheld, SpeedsStayInTheRangeWithPausesReversalsAndSmoothChanges) {
+  TrajectoryOptions options = Handheld(3000, 5);
+  options.handheld.cut_probability = 0.0;
+  const HandheldOptions& hand = options.handheld;
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+  ASSERT_EQ(frames.size(), 3000u);
+  int paused = 0;
+  int in_range = 0;
+  int reversals = 0;
+  double previous_speed = 0.0;
+  Eigen::Vector3d last_motion = Eigen::Vector3d::Zero();  // last step that moved
+  for (size_t k = 1; k < frames.size(); ++k) {
+    EXPECT_FALSE(frames[k].cut);
+    const Eigen::Vector3d turn = TurnDeg(frames[k - 1], frames[k]);
+    const double speed = turn.norm();
+    EXPECT_LE(speed, hand.speed_max_deg + 1e-6) << "frame " << k;
+    // Smooth: the speed changes by at most the acceleration (the axis turns a little too).
+    EXPECT_LE(std::abs(speed - previous_speed), hand.acceleration_deg + 0.5) << "frame " << k;
+    previous_speed = speed;
+    paused += speed < 0.05;
+    in_range += speed >= hand.speed_min_deg - 1e-6;
+    if (speed > 0.5) {
+      // Turning back: the rotation vector points against the last movement's.
+      if (last_motion.norm() > 0.0 && turn.dot(last_motion) < 0.0) ++reversals;
+      last_motion = turn;
+    }
+  }
+  const double n = static_cast<double>(frames.size() - 1);
+  EXPECT_GT(paused / n, 0.03);   // pauses: about 15 % of the segments
+  EXPECT_GT(in_range / n, 0.6);  // mostly moving at a speed of the range
+  EXPECT_GE(reversals, 10);      // about a quarter of the moving segments turn back
+  EXPECT_LT(reversals / n, 0.05);
+}
+
+TEST(Handheld, TheSpeedRangeCanReachThirtyDegreesPerFrame) {
+  TrajectoryOptions options = Handheld(1500, 2);
+  options.handheld.speed_min_deg = 20.0;
+  options.handheld.speed_max_deg = 30.0;
+  options.handheld.pause_probability = 0.0;
+  options.handheld.reverse_probability = 0.0;
+  options.handheld.cut_probability = 0.0;
+  ASSERT_TRUE(options.Check());
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+  double fastest = 0.0;
+  int in_range = 0;
+  for (size_t k = 1; k < frames.size(); ++k) {
+    const double speed = TurnDeg(frames[k - 1], frames[k]).norm();
+    EXPECT_LE(speed, 30.0 + 1e-6);
+    fastest = std::max(fastest, speed);
+    in_range += speed >= 20.0 - 1e-6;
+  }
+  EXPECT_GT(fastest, 28.0);
+  EXPECT_GT(in_range, 1400);  // only the first few frames accelerate
+}
+
+TEST(Handheld, ViewAndRollTurnTogetherAndAreCarriedOverThePoles) {
+  // Slow rotations that pass over the poles now and then: the virtual camera read back from
+  // (view, roll) must turn by the speed, with no jump where the roll reference flips.
+  TrajectoryOptions options = Handheld(4000, 9);
+  options.handheld.cut_probability = 0.0;
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+  double closest_to_pole = 1.0;
+  double roll_change = 0.0;
+  double view_change = 0.0;
+  for (size_t k = 1; k < frames.size(); ++k) {
+    EXPECT_NEAR(frames[k].view_dir_in_object.norm(), 1.0, 1e-12);
+    EXPECT_GT(frames[k].roll_deg, -180.0);
+    EXPECT_LE(frames[k].roll_deg, 180.0);
+    EXPECT_LE(TurnDeg(frames[k - 1], frames[k]).norm(), 15.0 + 1e-6) << "frame " << k;
+    closest_to_pole = std::min(closest_to_pole, 1.0 - std::abs(frames[k].view_dir_in_object.z()));
+    view_change += AngleDeg(frames[k - 1].view_dir_in_object, frames[k].view_dir_in_object);
+    const double carried = TransportRoll(frames[k - 1].view_dir_in_object, frames[k - 1].roll_deg,
+                                         frames[k].view_dir_in_object);
+    roll_change += std::abs(WrapDegrees(frames[k].roll_deg - carried));
+  }
+  EXPECT_LT(closest_to_pole, 1e-3);  // came within 2.6 degrees of a pole
+  // A full 3-D rotation: both the view and the roll (beyond transport) change substantially.
+  EXPECT_GT(view_change, 1000.0);
+  EXPECT_GT(roll_change, 1000.0);
+}
+
+TEST(Handheld, CutsHappenAtTheConfiguredRate) {
+  for (const double rate : {0.0, 0.01, 0.05}) {
+    TrajectoryOptions options = Handheld(5000, 13);
+    options.handheld.cut_probability = rate;
+    const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+    int cuts = 0;
+    EXPECT_FALSE(frames[0].cut);
+    for (size_t k = 1; k < frames.size(); ++k) {
+      if (frames[k].cut) {
+        ++cuts;
+      } else {
+        EXPECT_LE(TurnDeg(frames[k - 1], frames[k]).norm(), 15.0 + 1e-6) << "frame " << k;
+      }
+    }
+    const double expected = rate * 4999.0;
+    // Binomial: within 5 standard deviations (and none at all for rate 0).
+    EXPECT_NEAR(cuts, expected, 5.0 * std::sqrt(expected * (1.0 - rate)) + 1e-9) << rate;
+  }
+  // A cut jumps to an unrelated view: on average 90+ degrees away.
+  TrajectoryOptions options = Handheld(5000, 13);
+  options.handheld.cut_probability = 0.05;
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+  double jump_sum = 0.0;
+  int jumps = 0;
+  for (size_t k = 1; k < frames.size(); ++k) {
+    if (!frames[k].cut) continue;
+    jump_sum += TurnDeg(frames[k - 1], frames[k]).norm();
+    ++jumps;
+  }
+  ASSERT_GT(jumps, 0);
+  EXPECT_GT(jump_sum / jumps, 90.0);
+}
+
+TEST(Handheld, DistanceAndOffAxisAngleStayInRangeAndWander) {
+  TrajectoryOptions options = Handheld(4000, 21);
+  options.handheld.distance_min_radii = 4.0;
+  options.handheld.distance_max_radii = 10.0;
+  options.handheld.max_off_axis_deg = 25.0;
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);  // no camera
+  double low = 1e9;
+  double high = 0.0;
+  double widest = 0.0;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const TrajectoryFrame& frame = frames[k];
+    EXPECT_GE(frame.distance_in_radii, 4.0);
+    EXPECT_LE(frame.distance_in_radii, 10.0);
+    EXPECT_NEAR(frame.centre_ray_in_camera.norm(), 1.0, 1e-12);
+    const double off_axis = OffAxisDeg(frame.centre_ray_in_camera);
+    EXPECT_LE(off_axis, 25.0 + 1e-9) << "frame " << k;
+    if (k > 0) {  // smooth
+      EXPECT_LT(std::abs(std::log(frame.distance_in_radii / frames[k - 1].distance_in_radii)), 0.1);
+      EXPECT_LT(AngleDeg(frame.centre_ray_in_camera, frames[k - 1].centre_ray_in_camera), 2.0);
+    }
+    low = std::min(low, frame.distance_in_radii);
+    high = std::max(high, frame.distance_in_radii);
+    widest = std::max(widest, off_axis);
+  }
+  EXPECT_LT(low, 5.0);
+  EXPECT_GT(high, 8.0);
+  EXPECT_GT(widest, 20.0);
+}
+
+TEST(Handheld, KeepsTheBoundingSphereInsideTheCameraImage) {
+  const PinholeCamera camera = PinholeCamera::Centered(640, 480, 525.0);
+  TrajectoryOptions options = Handheld(3000, 4);
+  options.handheld.camera = camera;
+  options.handheld.off_axis_speed_deg = 1.0;  // reach the image border often
+  const std::vector<TrajectoryFrame> frames = GenerateTrajectory(options);
+  double widest = 0.0;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const TrajectoryFrame& frame = frames[k];
+    ASSERT_TRUE(BoundingSphereInImage(camera, frame.distance_in_radii, frame.centre_ray_in_camera))
+        << "frame " << k;
+    // Check the sphere's outline directly: points on its rim project inside the image.
+    const Eigen::Vector3d centre = frame.distance_in_radii * frame.centre_ray_in_camera;
+    for (int i = 0; i < 16; ++i) {
+      const double a = 2.0 * std::numbers::pi * i / 16.0;
+      for (const Eigen::Vector3d& rim : {Eigen::Vector3d(std::cos(a), std::sin(a), 0.0),
+                                         Eigen::Vector3d(std::cos(a), 0.0, std::sin(a)),
+                                         Eigen::Vector3d(0.0, std::cos(a), std::sin(a))}) {
+        const Eigen::Vector2d pixel = camera.Project(centre + rim);
+        EXPECT_GT(pixel.x(), -0.5);
+        EXPECT_LT(pixel.x(), 639.5);
+        EXPECT_GT(pixel.y(), -0.5);
+        EXPECT_LT(pixel.y(), 479.5);
+      }
+    }
+    widest = std::max(widest, OffAxisDeg(frame.centre_ray_in_camera));
+  }
+  EXPECT_GT(widest, 15.0);  // still moves off the axis
+  // Too close for the image: centred.
+  options.handheld.distance_min_radii = 1.2;
+  options.handheld.distance_max_radii = 1.3;
+  for (const TrajectoryFrame& frame : GenerateTrajectory(options)) {
+    EXPECT_EQ(frame.centre_ray_in_camera, Eigen::Vector3d::UnitZ());
+  }
+}
+
+TEST(Handheld, BoundingSphereTestAccountsForLensDistortion) {
+  PinholeCamera camera = PinholeCamera::Centered(640, 480, 525.0);
+  // At 10 radii, 20 degrees to the right: near the right border.
+  const double angle = 20.0 * std::numbers::pi / 180.0;
+  const Eigen::Vector3d ray(std::sin(angle), 0.0, std::cos(angle));
+  ASSERT_TRUE(BoundingSphereInImage(camera, 10.0, ray));
+  EXPECT_FALSE(BoundingSphereInImage(camera, 3.0, ray));
+  // Barrel distortion pulls the border in: the undistorted image is wider, the sphere fits better.
+  camera.distortion = {-0.3, 0.1, 0.0, 0.0, 0.0};
+  EXPECT_TRUE(BoundingSphereInImage(camera, 10.0, ray));
+  // Strong pincushion distortion pushes the image content out (the middle of the right border
+  // sees ideal x = 0.44 instead of 0.61, less than the sphere's rim at tan 25.7 deg = 0.48).
+  camera.distortion = {2.0, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_FALSE(BoundingSphereInImage(camera, 10.0, ray));
+}
+
+TEST(Handheld, IsDeterministicForASeedAndDiffersForAnother) {
+  const std::vector<TrajectoryFrame> a = GenerateTrajectory(Handheld(300, 7));
+  const std::vector<TrajectoryFrame> b = GenerateTrajectory(Handheld(300, 7));
+  const std::vector<TrajectoryFrame> c = GenerateTrajectory(Handheld(300, 8));
+  double difference = 0.0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].view_dir_in_object, b[k].view_dir_in_object);
+    EXPECT_EQ(a[k].roll_deg, b[k].roll_deg);
+    EXPECT_EQ(a[k].distance_in_radii, b[k].distance_in_radii);
+    EXPECT_EQ(a[k].centre_ray_in_camera, b[k].centre_ray_in_camera);
+    EXPECT_EQ(a[k].cut, b[k].cut);
+    difference += (a[k].view_dir_in_object - c[k].view_dir_in_object).norm();
+  }
+  EXPECT_GT(difference / static_cast<double>(a.size()), 0.1);
+}
+
+TEST(Handheld, InvalidOptionsAreRefusedWithTheirName) {
+  const auto refused = [](const HandheldOptions& hand, const char* word) {
+    std::string error;
+    EXPECT_FALSE(hand.Check(&error)) << word;
+    EXPECT_NE(error.find(word), std::string::npos) << error;
+  };
+  HandheldOptions hand;
+  EXPECT_TRUE(hand.Check());
+  hand.speed_min_deg = 10.0;
+  hand.speed_max_deg = 5.0;
+  refused(hand, "speed");
+  hand = HandheldOptions();
+  hand.speed_max_deg = 50.0;
+  refused(hand, "speed");
+  hand = HandheldOptions();
+  hand.cut_probability = 1.5;
+  refused(hand, "cut");
+  hand = HandheldOptions();
+  hand.pause_probability = -0.1;
+  refused(hand, "pause");
+  hand = HandheldOptions();
+  hand.distance_min_radii = 1.0;
+  refused(hand, "distance");
+  hand = HandheldOptions();
+  hand.max_off_axis_deg = 70.0;
+  refused(hand, "off-axis");
+  hand = HandheldOptions();
+  hand.segment_min_frames = 0;
+  refused(hand, "segment");
+  TrajectoryOptions options = Handheld(10, 1);
+  options.handheld.momentum = 1.0;
+  EXPECT_THROW(GenerateTrajectory(options), Error);
+}
+
+TEST(TrajectoryKinds, OrbitAndWalkStayOnTheAxisWithoutCuts) {
+  for (const TrajectoryOptions& options : {Orbit(30, 3.0), Walk(30, 2)}) {
+    for (const TrajectoryFrame& frame : GenerateTrajectory(options)) {
+      EXPECT_EQ(frame.centre_ray_in_camera, Eigen::Vector3d::UnitZ());
+      EXPECT_FALSE(frame.cut);
+    }
+  }
+  EXPECT_STREQ(TrajectoryKindName(TrajectoryKind::kHandheld), "handheld");
 }
 
 // ----- object switches --------------------------------------------------------------------------

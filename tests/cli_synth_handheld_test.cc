@@ -1,0 +1,140 @@
+// `silpose synth --trajectory handheld`: an object turned by hand in front of a static camera.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_runner.h"
+
+namespace silpose {
+namespace {
+
+class CliSynthHandheldTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("silpose_cli_synth_handheld_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(directory_);
+    models_ = std::string(SILPOSE_SAMPLE_MODELS_DIR);
+  }
+  static void TearDownTestSuite() { std::filesystem::remove_all(directory_); }
+
+  static std::string Path(const std::string& name) { return (directory_ / name).string(); }
+
+  // groundtruth.csv as rows of fields, the header first.
+  static std::vector<std::vector<std::string>> ReadCsv(const std::string& path) {
+    std::vector<std::vector<std::string>> rows;
+    std::ifstream file(path);
+    for (std::string line; std::getline(file, line);) {
+      std::vector<std::string> fields;
+      std::stringstream stream(line);
+      for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
+      rows.push_back(fields);
+    }
+    return rows;
+  }
+
+  static size_t Column(const std::vector<std::string>& header, const std::string& name) {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return i;
+    }
+    ADD_FAILURE() << "no column " << name;
+    return 0;
+  }
+
+  static inline std::filesystem::path directory_;
+  static inline std::string models_;
+};
+
+TEST_F(CliSynthHandheldTest, WritesAnOffAxisSequenceWithinTheGivenRanges) {
+  const std::string sequence = Path("hand");
+  const CommandResult run =
+      Silpose("synth " + models_ + "/bunny.obj -o " + sequence +
+              " --trajectory handheld --frames 30 --seed 3 --speed-range 5,20 "
+              "--distance-range 5,8 --max-off-axis-deg 15 --cut-probability 0 --threads 2");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("handheld trajectory"), std::string::npos) << run.out;
+  EXPECT_EQ(run.err.find("cut by the image border"), std::string::npos) << run.err;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(sequence + "/groundtruth.csv");
+  ASSERT_EQ(rows.size(), 31u);
+  const std::vector<std::string>& header = rows[0];
+  const size_t distance = Column(header, "distance");
+  const size_t off_axis = Column(header, "off_axis_deg");
+  const size_t ray_z = Column(header, "centre_ray_z");
+  double widest = 0.0;
+  for (size_t k = 1; k < rows.size(); ++k) {
+    ASSERT_EQ(rows[k].size(), header.size());
+    const double d = std::stod(rows[k][distance]);
+    EXPECT_GE(d, 5.0);
+    EXPECT_LE(d, 8.0);
+    const double angle = std::stod(rows[k][off_axis]);
+    EXPECT_LE(angle, 15.0 + 1e-9);
+    EXPECT_NEAR(std::cos(angle * std::numbers::pi / 180.0), std::stod(rows[k][ray_z]), 1e-9);
+    widest = std::max(widest, angle);
+    // Every mask is there and shows the object.
+    char name[32];
+    std::snprintf(name, sizeof(name), "/masks/%06zu.png", k - 1);
+    const cv::Mat mask = cv::imread(sequence + name, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(mask.empty()) << name;
+    EXPECT_GT(cv::countNonZero(mask), 500) << name;
+  }
+  EXPECT_GT(widest, 1.0);  // off the axis
+  // The same seed gives the same sequence.
+  const std::string again = Path("hand_again");
+  ASSERT_EQ(Silpose("synth " + models_ + "/bunny.obj -o " + again +
+                    " --trajectory handheld --frames 30 --seed 3 --speed-range 5,20 "
+                    "--distance-range 5,8 --max-off-axis-deg 15 --cut-probability 0")
+                .exit_code,
+            0);
+  EXPECT_EQ(ReadCsv(again + "/groundtruth.csv"), rows);
+}
+
+TEST_F(CliSynthHandheldTest, BadOrMisplacedOptionsGiveOneLineNamingTheOption) {
+  const std::string model = models_ + "/bunny.obj";
+  const struct {
+    std::string arguments;
+    std::string option;
+  } cases[] = {
+      {"--trajectory handheld --speed-range 10,5", "--speed-range"},
+      {"--trajectory handheld --speed-range 0,60", "--speed-range"},
+      {"--trajectory handheld --cut-probability 1.5", "--cut-probability"},
+      {"--trajectory handheld --pause-probability -1", "--pause-probability"},
+      {"--trajectory handheld --reverse-probability 2", "--reverse-probability"},
+      {"--trajectory handheld --distance-range 1,3", "--distance-range"},
+      {"--trajectory handheld --max-off-axis-deg 80", "--max-off-axis-deg"},
+      {"--trajectory handheld --tilt-deg 10", "--tilt-deg"},
+      {"--trajectory handheld --step-deg 3", "--step-deg"},
+      {"--trajectory walk --speed-range 1,2", "--speed-range"},
+      {"--cut-probability 0.1", "--cut-probability"},
+  };
+  for (const auto& c : cases) {
+    const CommandResult run =
+        Silpose("synth " + model + " -o " + Path("bad") + " --frames 3 " + c.arguments);
+    EXPECT_NE(run.exit_code, 0) << c.arguments;
+    EXPECT_EQ(Lines(run.err), 1) << c.arguments << ": " << run.err;
+    EXPECT_NE(run.err.find(c.option), std::string::npos) << c.arguments << ": " << run.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(Path("bad") + "/groundtruth.csv"));
+}
+
+TEST_F(CliSynthHandheldTest, HelpDescribesTheHandheldOptions) {
+  const CommandResult run = Silpose("synth --help");
+  ASSERT_EQ(run.exit_code, 0);
+  for (const char* option : {"handheld", "--speed-range", "--pause-probability",
+                             "--reverse-probability", "--cut-probability", "--max-off-axis-deg"}) {
+    EXPECT_NE(run.out.find(option), std::string::npos) << option;
+  }
+}
+
+}  // namespace
+}  // namespace silpose
