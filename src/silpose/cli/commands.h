@@ -21,6 +21,8 @@ void AddEvalCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 /// `silpose eval video` (eval_video_command.cc), added under `eval`.
 void AddEvalVideoCommand(CLI::App* eval);
+/// `silpose eval bop` (eval_bop_command.cc), added under `eval`.
+void AddEvalBopCommand(CLI::App* eval);
 
 /// The models an evaluation uses by default: ../shared/models (the reference set) when run from a
 /// checkout beside it, else the sample models.

@@ -354,6 +354,7 @@ void AddEvalCommand(CLI::App& app) {
   self_match->callback([arguments] { RunSelfMatchEval(*arguments); });
   AddTrackingCommand(eval);
   AddEvalVideoCommand(eval);
+  AddEvalBopCommand(eval);
 }
 
 }  // namespace silpose::cli
