@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli_runner.h"
@@ -127,11 +128,54 @@ TEST_F(CliSynthHandheldTest, BadOrMisplacedOptionsGiveOneLineNamingTheOption) {
   EXPECT_FALSE(std::filesystem::exists(Path("bad") + "/groundtruth.csv"));
 }
 
+TEST_F(CliSynthHandheldTest, ThresholdMaskQualityDegradesTheMasksAndRecordsTheEffects) {
+  const std::string perfect = Path("perfect");
+  const std::string threshold = Path("threshold");
+  const std::string common = "synth " + models_ + "/bunny.obj --trajectory handheld --frames 6 " +
+                             "--seed 4 --distance-range 4,5 -o ";
+  ASSERT_EQ(Silpose(common + perfect).exit_code, 0);
+  const CommandResult run = Silpose(common + threshold + " --mask-quality threshold --stick");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(threshold + "/groundtruth.csv");
+  ASSERT_EQ(rows.size(), 7u);
+  const size_t degradation = Column(rows[0], "degradation");
+  for (size_t k = 1; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k][degradation], "shadow+stick+fingers+ragged+holes+specks") << k;
+    char name[32];
+    std::snprintf(name, sizeof(name), "/masks/%06zu.png", k - 1);
+    const cv::Mat truth = cv::imread(perfect + name, cv::IMREAD_GRAYSCALE);
+    const cv::Mat mask = cv::imread(threshold + name, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(truth.empty());
+    ASSERT_FALSE(mask.empty());
+    const double iou =
+        static_cast<double>(cv::countNonZero(truth & mask)) / cv::countNonZero(truth | mask);
+    EXPECT_GT(iou, 0.7) << name;  // the stick on top of the preset
+    EXPECT_LT(iou, 0.95) << name;
+  }
+  // The perfect masks carry no effect.
+  const std::vector<std::vector<std::string>> clean = ReadCsv(perfect + "/groundtruth.csv");
+  EXPECT_EQ(clean[1][Column(clean[0], "degradation")], "none");
+
+  for (const auto& [arguments, option] :
+       std::vector<std::pair<std::string, std::string>>{{"--mask-quality good", "--mask-quality"},
+                                                        {"--holes 500", "--holes"},
+                                                        {"--ragged 50", "--ragged"},
+                                                        {"--fingers 9", "--fingers"},
+                                                        {"--shadow 2", "--shadow"}}) {
+    const CommandResult bad = Silpose(common + Path("bad_quality") + " " + arguments);
+    EXPECT_NE(bad.exit_code, 0) << arguments;
+    EXPECT_EQ(Lines(bad.err), 1) << arguments << ": " << bad.err;
+    EXPECT_NE(bad.err.find(option), std::string::npos) << arguments << ": " << bad.err;
+  }
+}
+
 TEST_F(CliSynthHandheldTest, HelpDescribesTheHandheldOptions) {
   const CommandResult run = Silpose("synth --help");
   ASSERT_EQ(run.exit_code, 0);
-  for (const char* option : {"handheld", "--speed-range", "--pause-probability",
-                             "--reverse-probability", "--cut-probability", "--max-off-axis-deg"}) {
+  for (const char* option :
+       {"handheld", "--speed-range", "--pause-probability", "--reverse-probability",
+        "--cut-probability", "--max-off-axis-deg", "--mask-quality", "--ragged", "--holes",
+        "--stick", "--fingers", "--shadow", "--specks"}) {
     EXPECT_NE(run.out.find(option), std::string::npos) << option;
   }
 }

@@ -36,6 +36,10 @@ struct SynthArguments {
   int threads = 0;
   bool overwrite = false;
   DegradationOptions degradation;
+  std::string mask_quality = "perfect";
+  // The mask effects given on the command line: they override the --mask-quality preset.
+  std::vector<std::pair<CLI::Option*, void (*)(const DegradationOptions&, DegradationOptions*)>>
+      effect_options;
   bool colour = false;
   std::string background;
   double camera_noise = 0.0;
@@ -228,15 +232,50 @@ SequenceWriteOptions MakeWriteOptions(const SynthArguments& arguments) {
   return write;
 }
 
+// The degradations: the --mask-quality preset, then the effects given one by one, each checked
+// with a message naming its option.
+DegradationOptions MakeDegradation(const SynthArguments& arguments) {
+  MaskQuality quality = MaskQuality::kPerfect;
+  if (!ParseMaskQuality(arguments.mask_quality, &quality)) {
+    ThrowError("--mask-quality must be perfect or threshold, got '", arguments.mask_quality, "'");
+  }
+  const DegradationOptions& given = arguments.degradation;
+  DegradationOptions degradation = WithMaskQuality(given, quality);
+  for (const auto& [option, copy] : arguments.effect_options) {
+    if (option->count() > 0) copy(given, &degradation);
+  }
+  degradation.seed = arguments.seed;
+  const auto in = [](double value, double low, double high) {
+    return std::isfinite(value) && value >= low && value <= high;
+  };
+  const struct {
+    bool ok;
+    const char* message;
+  } checks[] = {
+      {in(degradation.ragged_px, 0, 20), "--ragged must be in [0, 20] pixels"},
+      {in(degradation.ragged_scale_px, 1, 100), "--ragged-scale must be in [1, 100] pixels"},
+      {degradation.holes >= 0 && degradation.holes <= 100, "--holes must be in [0, 100]"},
+      {in(degradation.hole_radius_px, 1, 50), "--hole-radius must be in [1, 50] pixels"},
+      {in(degradation.stick_width_px, 1, 100), "--stick-width must be in [1, 100] pixels"},
+      {in(degradation.stick_length, 1e-9, 5), "--stick-length must be in (0, 5]"},
+      {degradation.fingers >= 0 && degradation.fingers <= 5, "--fingers must be in [0, 5]"},
+      {in(degradation.shadow, 0, 1), "--shadow must be in [0, 1]"},
+      {degradation.specks >= 0 && degradation.specks <= 1000, "--specks must be in [0, 1000]"},
+  };
+  for (const auto& check : checks) {
+    if (!check.ok) ThrowError(check.message);
+  }
+  std::string problem;
+  if (!degradation.Check(&problem)) {
+    ThrowError("invalid degradation (--noise, --erode, --missed, --bad, ...): ", problem);
+  }
+  return degradation;
+}
+
 void RunSynth(const SynthArguments& arguments) {
   SequenceOptions options;
   options.trajectory = MakeTrajectory(arguments, static_cast<int>(arguments.models.size()));
-  options.degradation = arguments.degradation;
-  options.degradation.seed = arguments.seed;
-  std::string problem;
-  if (!options.degradation.Check(&problem)) {
-    ThrowError("invalid degradation (--noise, --erode, --missed, --bad, ...): ", problem);
-  }
+  options.degradation = MakeDegradation(arguments);
   if (arguments.threads < 0) ThrowError("--threads must be >= 0 (0 = all cores)");
   if (!(arguments.fps > 0.0 && arguments.fps <= 1000.0)) ThrowError("--fps must be in (0, 1000]");
   if (!arguments.camera.empty()) options.camera = ReadCameraFile(arguments.camera);
@@ -423,6 +462,60 @@ void AddSynthCommand(CLI::App& app) {
                    "Probability that a frame is badly segmented (large occluder, heavy erosion "
                    "or merged blob), 0..1; recorded in groundtruth.csv")
       ->capture_default_str();
+  command
+      ->add_option("--mask-quality", arguments->mask_quality,
+                   "perfect: the rendered silhouettes; threshold: imperfect masks as an HSV colour "
+                   "threshold gives them (ragged boundary, small holes, two fingers, a shadow, "
+                   "specks; IoU with the true mask about 0.85-0.9 for silhouettes 70-150 px "
+                   "across). The options below override its values")
+      ->check(CLI::IsMember({"perfect", "threshold"}))
+      ->capture_default_str();
+  using Copy = void (*)(const DegradationOptions&, DegradationOptions*);
+  const auto effect = [&](CLI::Option* option, Copy copy) {
+    arguments->effect_options.emplace_back(option, copy);
+  };
+  effect(command->add_option("--ragged", degradation.ragged_px,
+                             "Ragged mask boundary: standard deviation of the outline's in-and-out "
+                             "movement, pixels (0 = off)"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->ragged_px = a.ragged_px; });
+  effect(command->add_option("--ragged-scale", degradation.ragged_scale_px,
+                             "Width of the ragged boundary's bumps, pixels (default 6)"),
+         [](const DegradationOptions& a, DegradationOptions* b) {
+           b->ragged_scale_px = a.ragged_scale_px;
+         });
+  effect(command->add_option("--holes", degradation.holes,
+                             "Small holes per frame inside the silhouette"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->holes = a.holes; });
+  effect(command->add_option("--hole-radius", degradation.hole_radius_px,
+                             "Largest hole semi-axis, pixels (default 4)"),
+         [](const DegradationOptions& a, DegradationOptions* b) {
+           b->hole_radius_px = a.hole_radius_px;
+         });
+  effect(command->add_flag("--stick", degradation.stick,
+                           "A thin bar attached to the silhouette, pointing away from it on one "
+                           "side (a stick holding the object)"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->stick = a.stick; });
+  effect(command->add_option("--stick-width", degradation.stick_width_px,
+                             "Width of the stick, pixels (default 6)"),
+         [](const DegradationOptions& a, DegradationOptions* b) {
+           b->stick_width_px = a.stick_width_px;
+         });
+  effect(
+      command->add_option("--stick-length", degradation.stick_length,
+                          "Length of the stick beyond the silhouette, relative to its size "
+                          "(default 1)"),
+      [](const DegradationOptions& a, DegradationOptions* b) { b->stick_length = a.stick_length; });
+  effect(command->add_option("--fingers", degradation.fingers,
+                             "Fingers holding the object (0..5): short round bars side by side on "
+                             "one side of the silhouette"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->fingers = a.fingers; });
+  effect(command->add_option("--shadow", degradation.shadow,
+                             "Shadow merged into the mask: the silhouette shifted by this fraction "
+                             "of its size, 0..1 (0 = off)"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->shadow = a.shadow; });
+  effect(command->add_option("--specks", degradation.specks,
+                             "Small false-positive specks per frame around the silhouette"),
+         [](const DegradationOptions& a, DegradationOptions* b) { b->specks = a.specks; });
   command->add_flag(
       "--colour", arguments->colour,
       "Also render colour frames, frames/000000.png...: the object shaded (one colour "

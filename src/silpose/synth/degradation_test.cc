@@ -5,6 +5,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 
 #include "silpose/util/error.h"
 
@@ -202,6 +203,282 @@ TEST(Degradation, NamesRoundTrip) {
   }
   FrameDegradation parsed = FrameDegradation::kNone;
   EXPECT_FALSE(ParseFrameDegradation("occluded", &parsed));
+}
+
+// ----- imperfect masks of a colour threshold ----------------------------------------------------
+
+// A 320 x 240 mask with a filled ellipse (semi-axes 60 x 40) in the middle: size 120 px.
+cv::Mat LargeSilhouette() {
+  cv::Mat mask(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::ellipse(mask, cv::Point(160, 110), cv::Size(60, 40), 15.0, 0.0, 360.0, cv::Scalar(255),
+              cv::FILLED);
+  return mask;
+}
+
+cv::Mat DegradedLarge(const DegradationOptions& options, int frame) {
+  cv::Mat mask = LargeSilhouette();
+  DegradeMask(options, frame, &mask);
+  return mask;
+}
+
+// Number of 8-connected components of a mask.
+int Components(const cv::Mat& mask) {
+  cv::Mat labels;
+  return cv::connectedComponents(mask, labels, 8) - 1;
+}
+
+// Distance of every pixel to the outline of `mask` (to the nearest pixel of the other kind).
+cv::Mat DistanceToOutline(const cv::Mat& mask) {
+  cv::Mat inside;
+  cv::Mat outside;
+  cv::distanceTransform(mask, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::distanceTransform(mask == 0, outside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  return inside + outside;
+}
+
+double IoU(const cv::Mat& a, const cv::Mat& b) {
+  return static_cast<double>(cv::countNonZero(a & b)) / cv::countNonZero(a | b);
+}
+
+cv::Point2d Centroid(const cv::Mat& mask) {
+  const cv::Moments m = cv::moments(mask, true);
+  return {m.m10 / m.m00, m.m01 / m.m00};
+}
+
+TEST(ThresholdEffects, RaggedBoundaryMovesTheOutlineByAFewCorrelatedPixels) {
+  const cv::Mat original = LargeSilhouette();
+  const cv::Mat distance = DistanceToOutline(original);
+  DegradationOptions options;
+  options.ragged_px = 2.0;
+  options.ragged_scale_px = 6.0;
+  for (int frame = 0; frame < 5; ++frame) {
+    const cv::Mat ragged = DegradedLarge(options, frame);
+    const cv::Mat changed = ragged != original;
+    // Only near the outline (4 standard deviations), in and out.
+    double farthest = 0.0;
+    cv::minMaxLoc(distance, nullptr, &farthest, nullptr, nullptr, changed);
+    EXPECT_LE(farthest, 4.0 * options.ragged_px + 1.0) << "frame " << frame;
+    EXPECT_GT(Extra(ragged, original), 80) << "frame " << frame;
+    EXPECT_GT(Extra(original, ragged), 80) << "frame " << frame;
+    // Spatially correlated: bumps of several pixels, not single flipped pixels.
+    EXPECT_GT(Count(changed) / Components(changed), 8) << "frame " << frame;
+    // Still one silhouette of about the same area.
+    EXPECT_NEAR(Count(ragged), Count(original), 0.08 * Count(original)) << "frame " << frame;
+  }
+}
+
+TEST(ThresholdEffects, HolesRemovePixelsInsideOnly) {
+  const cv::Mat original = LargeSilhouette();
+  DegradationOptions options;
+  options.holes = 5;
+  options.hole_radius_px = 4.0;
+  for (int frame = 0; frame < 5; ++frame) {
+    const cv::Mat holed = DegradedLarge(options, frame);
+    EXPECT_EQ(Extra(holed, original), 0) << "frame " << frame;
+    const cv::Mat removed = original & ~holed;
+    EXPECT_GT(Count(removed), 5) << "frame " << frame;
+    EXPECT_LE(Components(removed), 5) << "frame " << frame;
+    EXPECT_LE(Count(removed), 5 * 3.15 * 5 * 5) << "frame " << frame;  // 5 discs of radius <= 5
+    // The outline is untouched: the outer contour, filled, is the original silhouette.
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(holed.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    ASSERT_EQ(contours.size(), 1u) << "frame " << frame;
+    cv::Mat filled(holed.size(), CV_8UC1, cv::Scalar(0));
+    cv::drawContours(filled, contours, 0, cv::Scalar(255), cv::FILLED);
+    EXPECT_EQ(Different(filled, original), 0) << "frame " << frame;
+  }
+}
+
+TEST(ThresholdEffects, StickAndFingersAddBarsOutsideTouchingTheSilhouetteOnOneSide) {
+  const cv::Mat original = LargeSilhouette();
+  const cv::Point2d centre = Centroid(original);
+  DegradationOptions stick;
+  stick.stick = true;
+  stick.stick_width_px = 5.0;
+  stick.stick_length = 0.6;
+  DegradationOptions fingers;
+  fingers.fingers = 3;
+  for (int frame = 0; frame < 6; ++frame) {
+    for (const DegradationOptions& options : {stick, fingers}) {
+      const cv::Mat held = DegradedLarge(options, frame);
+      EXPECT_EQ(Extra(original, held), 0) << "frame " << frame;  // adds only
+      const cv::Mat added = held & ~original;
+      EXPECT_GT(Count(added), 100) << "frame " << frame;
+      EXPECT_EQ(Components(held), 1) << "frame " << frame;  // attached
+      // Pointing away from the silhouette, on the hand's side (down in the image, +-75 degrees).
+      const cv::Point2d away = Centroid(added) - centre;
+      EXPECT_GT(away.y, 0.25 * std::hypot(away.x, away.y)) << "frame " << frame;
+      EXPECT_GT(std::hypot(away.x, away.y), 40.0) << "frame " << frame;
+    }
+    // The stick is thin and long: its added area is about width x length (more with the round
+    // end and the wedge between the bar and a curved outline).
+    const int stick_area = Extra(DegradedLarge(stick, frame), original);
+    EXPECT_GT(stick_area, 0.8 * 5.0 * 0.6 * 120.0) << "frame " << frame;
+    EXPECT_LT(stick_area, 1.6 * 5.0 * 0.6 * 120.0) << "frame " << frame;
+    // Fingers stand apart outside the silhouette.
+    const cv::Mat finger_parts = DegradedLarge(fingers, frame) & ~original;
+    EXPECT_GE(Components(finger_parts), 2) << "frame " << frame;
+  }
+}
+
+TEST(ThresholdEffects, ShadowAddsARegionAdjoiningOneSide) {
+  const cv::Mat original = LargeSilhouette();
+  DegradationOptions options;
+  options.shadow = 0.1;  // 12 px
+  cv::Point2d first_side;
+  for (int frame = 0; frame < 6; ++frame) {
+    const cv::Mat shadowed = DegradedLarge(options, frame);
+    EXPECT_EQ(Extra(original, shadowed), 0) << "frame " << frame;
+    EXPECT_EQ(Components(shadowed), 1) << "frame " << frame;
+    const cv::Mat added = shadowed & ~original;
+    // A crescent of about shift x extent across (12 px x ~80..120 px).
+    EXPECT_GT(Count(added), 600) << "frame " << frame;
+    EXPECT_LT(Count(added), 12 * 130) << "frame " << frame;
+    // On one side, the same side in every frame (the light does not move).
+    cv::Point2d side = Centroid(added) - Centroid(original);
+    side /= std::hypot(side.x, side.y);
+    if (frame == 0) first_side = side;
+    EXPECT_GT(side.dot(first_side), std::cos(25.0 * 3.14159 / 180.0)) << "frame " << frame;
+    EXPECT_GT(std::hypot(Centroid(added).x - Centroid(original).x,
+                         Centroid(added).y - Centroid(original).y),
+              25.0);
+  }
+}
+
+TEST(ThresholdEffects, SpecksAreSmallFalsePositivesAroundTheObject) {
+  const cv::Mat original = LargeSilhouette();
+  DegradationOptions options;
+  options.specks = 20;
+  options.speck_radius_px = 2.0;
+  const cv::Mat specked = DegradedLarge(options, 3);
+  EXPECT_EQ(Extra(original, specked), 0);
+  const cv::Mat added = specked & ~original;
+  cv::Mat labels;
+  cv::Mat stats;
+  cv::Mat centroids;
+  const int n = cv::connectedComponentsWithStats(added, labels, stats, centroids, 8) - 1;
+  EXPECT_GE(n, 8);  // some land on the object or on each other
+  EXPECT_LE(n, 20);
+  for (int i = 1; i <= n; ++i) EXPECT_LE(stats.at<int>(i, cv::CC_STAT_AREA), 2 * 13);
+  EXPECT_GT(Components(specked), 5);  // most stand apart from the silhouette
+}
+
+TEST(ThresholdEffects, AreDeterministicPerSeedAndFrame) {
+  const DegradationOptions options = WithMaskQuality(DegradationOptions(), MaskQuality::kThreshold);
+  const cv::Mat a = DegradedLarge(options, 4);
+  EXPECT_EQ(Different(a, DegradedLarge(options, 4)), 0);
+  EXPECT_GT(Different(a, DegradedLarge(options, 5)), 50);
+  DegradationOptions other = options;
+  other.seed = 9;
+  EXPECT_GT(Different(a, DegradedLarge(other, 4)), 50);
+  // One effect's draws do not depend on the others being on.
+  DegradationOptions holes_only;
+  holes_only.holes = 4;
+  DegradationOptions with_specks = holes_only;
+  with_specks.specks = 10;
+  const cv::Mat original = LargeSilhouette();
+  EXPECT_EQ(Different(original & ~DegradedLarge(holes_only, 2),
+                      original & ~DegradedLarge(with_specks, 2)),
+            0);
+}
+
+TEST(ThresholdEffects, PresetIsPerfectOrThreshold) {
+  MaskQuality quality = MaskQuality::kPerfect;
+  EXPECT_TRUE(ParseMaskQuality("threshold", &quality));
+  EXPECT_EQ(quality, MaskQuality::kThreshold);
+  EXPECT_STREQ(MaskQualityName(MaskQuality::kPerfect), "perfect");
+  EXPECT_FALSE(ParseMaskQuality("good", &quality));
+  DegradationOptions base;
+  base.missed_probability = 0.1;
+  base.seed = 5;
+  const DegradationOptions perfect = WithMaskQuality(base, MaskQuality::kPerfect);
+  EXPECT_EQ(Different(DegradedLarge(perfect, 0), DegradedLarge(base, 0)), 0);
+  const DegradationOptions threshold = WithMaskQuality(base, MaskQuality::kThreshold);
+  EXPECT_TRUE(threshold.Check());
+  EXPECT_EQ(threshold.seed, 5u);
+  EXPECT_EQ(threshold.missed_probability, 0.1);
+  EXPECT_EQ(AppliedMaskEffects(threshold, 0) &
+                (kMaskEffectRagged | kMaskEffectHoles | kMaskEffectFingers | kMaskEffectShadow |
+                 kMaskEffectSpecks),
+            kMaskEffectRagged | kMaskEffectHoles | kMaskEffectFingers | kMaskEffectShadow |
+                kMaskEffectSpecks);
+}
+
+TEST(ThresholdEffects, LabelsRecordKindAndEffectsAndReadOldValues) {
+  EXPECT_EQ(DegradationLabel(FrameDegradation::kNone, 0), "none");
+  EXPECT_EQ(DegradationLabel(FrameDegradation::kBad, 0), "bad");
+  EXPECT_EQ(DegradationLabel(FrameDegradation::kMissed, kMaskEffectHoles), "missed");
+  EXPECT_EQ(DegradationLabel(FrameDegradation::kNone, kMaskEffectHoles | kMaskEffectRagged),
+            "ragged+holes");
+  EXPECT_EQ(DegradationLabel(FrameDegradation::kBad, kMaskEffectShadow | kMaskEffectSpecks),
+            "bad+shadow+specks");
+  // Every combination of kind and effects reads back.
+  for (FrameDegradation kind : {FrameDegradation::kNone, FrameDegradation::kBad}) {
+    for (uint32_t effects = 0; effects < (1u << AllMaskEffects().size()); effects += 37) {
+      FrameDegradation read_kind = FrameDegradation::kMissed;
+      uint32_t read_effects = 12345;
+      ASSERT_TRUE(ParseDegradationLabel(DegradationLabel(kind, effects), &read_kind, &read_effects))
+          << DegradationLabel(kind, effects);
+      EXPECT_EQ(read_kind, kind);
+      EXPECT_EQ(read_effects, effects);
+    }
+  }
+  FrameDegradation kind = FrameDegradation::kNone;
+  uint32_t effects = 1;
+  for (const char* old : {"none", "missed", "bad"}) {
+    ASSERT_TRUE(ParseDegradationLabel(old, &kind, &effects)) << old;
+    EXPECT_STREQ(FrameDegradationName(kind), old);
+    EXPECT_EQ(effects, 0u);
+  }
+  for (const char* wrong :
+       {"", "blurred", "ragged+", "holes+holes", "missed+holes", "bad+none", "ragged++holes"}) {
+    EXPECT_FALSE(ParseDegradationLabel(wrong, &kind, &effects)) << wrong;
+  }
+}
+
+TEST(ThresholdEffects, AppliedEffectsAreThoseSwitchedOnExceptOnMissedFrames) {
+  DegradationOptions options;
+  options.erode_px = 1;
+  options.stick = true;
+  options.specks = 3;
+  options.missed_probability = 0.5;
+  int missed = 0;
+  for (int frame = 0; frame < 40; ++frame) {
+    const uint32_t effects = AppliedMaskEffects(options, frame);
+    if (ChooseFrameDegradation(options, frame) == FrameDegradation::kMissed) {
+      EXPECT_EQ(effects, 0u);
+      ++missed;
+    } else {
+      EXPECT_EQ(effects, kMaskEffectErode | kMaskEffectStick | kMaskEffectSpecks);
+    }
+  }
+  EXPECT_GT(missed, 5);
+}
+
+TEST(ThresholdEffects, InvalidValuesAreRefusedWithTheirName) {
+  const auto refused = [](DegradationOptions options, const char* word) {
+    std::string error;
+    EXPECT_FALSE(options.Check(&error)) << word;
+    EXPECT_NE(error.find(word), std::string::npos) << error;
+  };
+  DegradationOptions options;
+  options.ragged_px = 30.0;
+  refused(options, "ragged");
+  options = DegradationOptions();
+  options.holes = -1;
+  refused(options, "holes");
+  options = DegradationOptions();
+  options.fingers = 6;
+  refused(options, "fingers");
+  options = DegradationOptions();
+  options.shadow = 1.5;
+  refused(options, "shadow");
+  options = DegradationOptions();
+  options.specks = 5000;
+  refused(options, "specks");
+  options = DegradationOptions();
+  options.stick_width_px = 0.0;
+  refused(options, "stick");
 }
 
 }  // namespace

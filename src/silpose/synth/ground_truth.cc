@@ -143,7 +143,7 @@ void WriteGroundTruth(const std::filesystem::path& path,
     text += ',';
     AppendNumber(&text, frame.distance_in_radii);
     text += ',';
-    text += FrameDegradationName(frame.degradation);
+    text += DegradationLabel(frame.degradation, frame.mask_effects);
     for (int i = 0; i < 3; ++i) {
       text += ',';
       AppendNumber(&text, frame.centre_ray_in_camera[i]);
@@ -243,8 +243,9 @@ std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path)
                                            : std::numeric_limits<double>::quiet_NaN();
     if (has_degradation) {
       const std::string_view name = row.Field(column_of[19], kColumns[19]);
-      if (!ParseFrameDegradation(name, &frame.degradation)) {
-        row.Fail("column 'degradation': '" + std::string(name) + "' is none of none, missed, bad");
+      if (!ParseDegradationLabel(name, &frame.degradation, &frame.mask_effects)) {
+        row.Fail("column 'degradation': '" + std::string(name) +
+                 "' is not none, missed, or bad and mask effects (e.g. ragged+holes) joined by +");
       }
     }
     if (has_ray) {

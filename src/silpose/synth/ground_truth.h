@@ -7,12 +7,14 @@
 // camera looking straight at the object centre (synth/trajectory.h); r.. and t.. the true 6-DOF
 // pose camera_from_object (x_in_camera = R * x_in_object + t, OpenCV camera frame, t in model
 // units); `distance` the camera distance from the object centre in object radii; `degradation`
-// none|missed|bad (synth/degradation.h); centre_ray_* the unit ray u (camera frame) along which the
+// the frame's kind and mask effects (DegradationLabel of synth/degradation.h: none, missed, bad,
+// or e.g. ragged+holes, bad+shadow); centre_ray_* the unit ray u (camera frame) along which the
 // object centre is seen, and off_axis_deg its angle from the optical axis (R = Q R_on with Q the
 // minimal rotation taking (0, 0, 1) to u; on the axis u = (0, 0, 1) and R = R_on). Numbers are
 // written in the shortest form that reads back to the same double.
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -41,6 +43,9 @@ struct GroundTruthFrame {
   Eigen::Vector3d centre_ray_in_camera = Eigen::Vector3d::UnitZ();
   /// kNone if the file has no such column.
   FrameDegradation degradation = FrameDegradation::kNone;
+  /// The effects applied to the mask (MaskEffect flags of synth/degradation.h); 0 if the file has
+  /// no degradation column or it lists none.
+  uint32_t mask_effects = 0;
 };
 
 /// The header line (without the newline).
@@ -61,7 +66,8 @@ void WriteGroundTruth(const std::filesystem::path& path,
 /// empty, a view direction is not of unit length, the centre ray is not a unit vector in front of
 /// the camera or disagrees with off_axis_deg (tolerance 1e-3 degrees), R is not a rotation, the
 /// view direction is not the virtual camera's optical axis reversed (-R^T u, which is -R.row(2) on
-/// the axis), or a degradation is unknown (tolerances 1e-4, for files written with 6 decimals).
+/// the axis), or a degradation label does not parse (ParseDegradationLabel) (tolerances 1e-4, for
+/// files written with 6 decimals).
 std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path);
 
 }  // namespace silpose

@@ -56,6 +56,9 @@ std::vector<GroundTruthFrame> RandomFrames(int count) {
           RotationFromOpticalAxisTo(frame.centre_ray_in_camera) * frame.camera_from_object.rotation;
     }
     frame.degradation = static_cast<FrameDegradation>(k % 3);
+    if (frame.degradation != FrameDegradation::kMissed) {  // effects of a missed frame: none
+      frame.mask_effects = static_cast<uint32_t>(k * 37) & ((1u << AllMaskEffects().size()) - 1);
+    }
     frames.push_back(frame);
   }
   return frames;
@@ -71,6 +74,7 @@ void ExpectSame(const GroundTruthFrame& a, const GroundTruthFrame& b) {
   EXPECT_EQ(a.distance_in_radii, b.distance_in_radii);
   EXPECT_EQ(a.degradation, b.degradation);
   EXPECT_EQ(a.centre_ray_in_camera, b.centre_ray_in_camera);
+  EXPECT_EQ(a.mask_effects, b.mask_effects);
 }
 
 TEST(GroundTruth, WriteThenReadGivesExactlyTheSameFrames) {

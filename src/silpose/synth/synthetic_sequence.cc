@@ -267,6 +267,7 @@ GroundTruthFrame SyntheticSequence::Truth(int index) const {
     truth.camera_from_object.translation = distance * ray - rotation * centres_[object];
   }
   truth.degradation = ChooseFrameDegradation(options_.degradation, index);
+  truth.mask_effects = AppliedMaskEffects(options_.degradation, index);
   return truth;
 }
 

@@ -450,5 +450,28 @@ TEST(SyntheticSequence, DistortedCamerasGiveDistortedMasksAndColourFrames) {
   EXPECT_LT(least_ideal_iou, 0.95);  // the distortion matters
 }
 
+TEST(SyntheticSequence, ThresholdMaskQualityHasTheDocumentedOverlapWithTheTrueMask) {
+  // The bunny turned by hand at 4-10 radii in the default camera (silhouettes 70-100 px across).
+  SequenceOptions options = Handheld(24, 6);
+  options.degradation = WithMaskQuality(options.degradation, MaskQuality::kThreshold);
+  options.degradation.seed = 6;
+  const SyntheticSequence sequence({Bunny()}, options);
+  double sum = 0.0;
+  int frames = 0;
+  for (int k = 0; k < sequence.num_frames(); k += 2) {
+    const SyntheticFrame frame = sequence.Generate(k);
+    cv::Mat truth;
+    RenderSilhouette(Bunny(), sequence.camera(), frame.truth.camera_from_object, &truth);
+    const double iou = IoU(truth, frame.mask);
+    EXPECT_GT(iou, 0.78) << "frame " << k;
+    EXPECT_LT(iou, 0.95) << "frame " << k;
+    sum += iou;
+    ++frames;
+    EXPECT_EQ(frame.truth.mask_effects, AppliedMaskEffects(options.degradation, k));
+  }
+  EXPECT_GT(sum / frames, 0.85);
+  EXPECT_LT(sum / frames, 0.9);
+}
+
 }  // namespace
 }  // namespace silpose
