@@ -17,6 +17,11 @@ struct BuildDbArguments {
 };
 
 void PrintDatabaseSummary(const ViewDatabase& database) {
+  std::printf("%d views x %d distance shells (", database.num_views(), database.num_shells());
+  for (int s = 0; s < database.num_shells(); ++s) {
+    std::printf("%s%g", s > 0 ? ", " : "", database.parameters.distances_in_radii[static_cast<size_t>(s)]);
+  }
+  std::printf(" radii)\n");
   std::printf("%-24s %9s %10s %7s %8s %7s %7s\n", "model", "triangles", "radius", "usable",
               "circular", "holes", "border");
   for (const ModelViews& model : database.models) {
@@ -31,8 +36,8 @@ void PrintDatabaseSummary(const ViewDatabase& database) {
                 model.radius, usable, circular, holes, border);
     if (usable < static_cast<int>(model.views.size())) {
       std::fprintf(stderr,
-                   "silpose build-db: warning: %s: %d views had no describable silhouette and "
-                   "will never match\n",
+                   "silpose build-db: warning: %s: %d view renderings (over all shells) had no "
+                   "describable silhouette and will never match\n",
                    model.name.c_str(), static_cast<int>(model.views.size()) - usable);
     }
   }
@@ -82,8 +87,10 @@ void AddBuildDbCommand(CLI::App& app) {
                    "Rendered image width and height, pixels")
       ->capture_default_str();
   command
-      ->add_option("--distance", parameters.render.distance_in_radii,
-                   "Camera distance from the object centre, in object radii")
+      ->add_option("--distances", parameters.distances_in_radii,
+                   "Camera distances of the distance shells, object radii, increasing (one "
+                   "rendering per view and shell; '3' is the paper's single shell)")
+      ->delimiter(',')
       ->capture_default_str();
   command
       ->add_option("--fill", parameters.render.fill_fraction,

@@ -438,6 +438,19 @@ void AddTrackCommand(CLI::App& app) {
                     "Match every frame against the whole database independently (the paper's "
                     "baseline) instead of filtering");
   command->add_option("--seed", filter.seed, "Seed of the particle filter")->capture_default_str();
+  command->add_flag("!--no-refine", arguments->tracker.refine,
+                    "Report the database view's pose without the continuous contour refinement");
+  command->add_flag("!--no-on-axis", arguments->tracker.on_axis_matching,
+                    "Match the raw silhouette instead of the on-axis, undistorted one");
+  static const std::map<std::string, MotionModel> kMotionModels = {
+      {"adaptive", MotionModel::kAdaptive}, {"neighbour", MotionModel::kNeighbour}};
+  command
+      ->add_option("--motion", filter.motion_model,
+                   "Motion model: adaptive (rotation walk with velocity, any speed) or neighbour "
+                   "(the paper's: one neighbouring view per frame)")
+      ->transform(CLI::CheckedTransformer(kMotionModels, CLI::ignore_case));
+  command->add_flag("!--no-proposal", filter.data_driven_proposal,
+                    "No particles from the frame's best database views (the paper's filter)");
   SegmenterOptions& segment = arguments->tracker.segmentation;
   command
       ->add_option("--segment", arguments->segment,

@@ -41,23 +41,31 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   }
   model->num_vertices = static_cast<uint32_t>(mesh.vertices.size());
   model->num_triangles = static_cast<uint32_t>(mesh.triangles.size());
-  model->views.assign(static_cast<size_t>(num_views), ViewRecord{});
-  model->signatures.assign(static_cast<size_t>(num_views) * static_cast<size_t>(length), 0.0f);
+  model->mesh = mesh;
+  const int num_shells = parameters.num_shells();
+  const int num_records = num_views * num_shells;
+  model->views_per_shell = num_views;
+  model->views.assign(static_cast<size_t>(num_records), ViewRecord{});
+  model->signatures.assign(static_cast<size_t>(num_records) * static_cast<size_t>(length), 0.0f);
 
-  // Camera and distance are the same for every view; RenderView would recompute the mesh's centre
-  // and radius each time.
-  const PinholeCamera camera = ViewCamera(parameters.render);
-  const double distance = parameters.render.distance_in_radii * model->radius;
+  // Camera and distance are the same for every view of a shell; RenderView would recompute the
+  // mesh's centre and radius each time.
+  std::vector<PinholeCamera> cameras;
+  for (int s = 0; s < num_shells; ++s) cameras.push_back(ViewCamera(parameters.ShellRender(s)));
   tbb::enumerable_thread_specific<cv::Mat> masks;
   auto describe = [&](const tbb::blocked_range<int>& range) {
     cv::Mat& mask = masks.local();
-    for (int v = range.begin(); v != range.end(); ++v) {
+    for (int index = range.begin(); index != range.end(); ++index) {
+      const int shell = index / num_views;
+      const int v = index % num_views;
+      const double distance =
+          parameters.distances_in_radii[static_cast<size_t>(shell)] * model->radius;
       RenderSilhouette(
-          mesh, camera,
+          mesh, cameras[static_cast<size_t>(shell)],
           CameraFromObjectAtView(sphere.directions[static_cast<size_t>(v)], 0.0, distance, centre),
           &mask);
       const SignatureResult result = ExtractSignature(mask, parameters.signature);
-      ViewRecord& record = model->views[static_cast<size_t>(v)];
+      ViewRecord& record = model->views[static_cast<size_t>(index)];
       record.status = result.status;
       record.flags = result.flags;
       record.area_px = static_cast<float>(result.signature.area_px);
@@ -68,19 +76,20 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
         record.centroid_y_px = static_cast<float>(signature.centroid_px.y());
         record.relative_std = static_cast<float>(signature.relative_std);
         std::copy(signature.radii.begin(), signature.radii.end(),
-                  model->MutableSignature(v).begin());
+                  model->MutableSignature(v, shell).begin());
       }
     }
     if (on_views_done) on_views_done(static_cast<int>(range.size()));
   };
   if (num_threads == 1) {
     constexpr int kChunk = 16;  // report progress as views are done
-    for (int begin = 0; begin < num_views; begin += kChunk) {
-      describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_views)));
+    for (int begin = 0; begin < num_records; begin += kChunk) {
+      describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_records)));
     }
   } else {
     tbb::task_arena arena(WorkerThreads(num_threads));
-    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 8), describe); });
+    arena.execute(
+        [&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe); });
   }
 }
 
@@ -101,7 +110,9 @@ ViewDatabase BuildViewDatabase(const std::vector<std::filesystem::path>& mesh_pa
   database.parameters = options.parameters;
   database.sphere = BuildViewSphere(options.parameters.view_sphere);
   const int num_views = database.sphere.num_views();
-  ProgressBar progress("build-db", static_cast<int64_t>(mesh_paths.size()) * num_views,
+  ProgressBar progress("build-db",
+                       static_cast<int64_t>(mesh_paths.size()) * num_views *
+                           options.parameters.num_shells(),
                        options.show_progress && ProgressBar::StderrIsTerminal());
   database.models.resize(mesh_paths.size());
   for (size_t i = 0; i < mesh_paths.size(); ++i) {

@@ -61,8 +61,12 @@ TEST_F(DatabaseBuilderTest, BuildsEveryViewAndRecordsTheModel) {
   EXPECT_EQ(model.num_triangles, 20u);
   EXPECT_NEAR(model.centre[0], 1.5, 1e-6);
   EXPECT_NEAR(model.radius, std::sqrt(1.5 * 1.5 + 1.1 * 1.1 + 0.35 * 0.35), 1e-5);
-  ASSERT_EQ(model.views.size(), 60u);
-  EXPECT_EQ(model.signatures.size(), 60u * 180u);
+  const size_t shells = database.parameters.distances_in_radii.size();
+  ASSERT_EQ(shells, 4u);  // the default shells
+  ASSERT_EQ(model.views.size(), 60u * shells);
+  EXPECT_EQ(model.signatures.size(), 60u * shells * 180u);
+  // The geometry is kept for refinement.
+  EXPECT_EQ(model.mesh.triangles.size(), 20u);
   for (const ViewRecord& view : model.views) {
     EXPECT_EQ(view.status, SignatureStatus::kOk);
     EXPECT_FALSE(view.flags & kSilhouetteTouchesBorder);
@@ -70,6 +74,28 @@ TEST_F(DatabaseBuilderTest, BuildsEveryViewAndRecordsTheModel) {
     EXPECT_LT(view.mean_radius_px, 0.45 * 96);
     EXPECT_GT(view.mean_radius_px, 5.0);
   }
+}
+
+TEST_F(DatabaseBuilderTest, FarShellsApproachTheOrthographicOutline) {
+  // Perspective changes the outline with 1 / distance: a shell at 20 radii is much closer to the
+  // outline seen from very far (1000 radii, nearly orthographic) than the paper's 3 radii.
+  const auto path = WriteLPrism(directory_, "lprism");
+  DatabaseBuildOptions options = SmallOptions(2);
+  options.parameters.distances_in_radii = {3.0, 20.0, 1000.0};
+  const ViewDatabase database = BuildViewDatabase({path}, options);
+  const ModelViews& model = database.models[0];
+  double near_gap = 0.0, far_gap = 0.0;
+  for (int v = 0; v < 60; ++v) {
+    const auto near = model.Signature(v, 0);
+    const auto far = model.Signature(v, 1);
+    const auto ortho = model.Signature(v, 2);
+    for (size_t k = 0; k < near.size(); ++k) {
+      near_gap += std::abs(near[k] - ortho[k]);
+      far_gap += std::abs(far[k] - ortho[k]);
+    }
+  }
+  EXPECT_GT(near_gap, 0.0);
+  EXPECT_LT(far_gap, 0.35 * near_gap);
 }
 
 TEST_F(DatabaseBuilderTest, ThreadCountDoesNotChangeTheResult) {

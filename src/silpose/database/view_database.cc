@@ -94,6 +94,7 @@ class Reader {
 // Counts read from the file are checked against this before anything is allocated.
 constexpr uint32_t kMaxViews = 1'000'000;
 constexpr uint32_t kMaxModels = 100'000;
+constexpr size_t kMaxShells = 16;
 
 }  // namespace
 
@@ -111,7 +112,36 @@ bool DatabaseParameters::Check(std::string* error) const {
     if (error != nullptr) *error = "signature: " + detail;
     return false;
   }
+  std::ostringstream message;
+  if (distances_in_radii.empty() || distances_in_radii.size() > kMaxShells) {
+    message << "shells: 1 to " << kMaxShells << " distances needed, got "
+            << distances_in_radii.size();
+  } else {
+    for (size_t s = 0; s < distances_in_radii.size(); ++s) {
+      const double d = distances_in_radii[s];
+      if (!std::isfinite(d) || !(d > 1.0) || d > 1e6) {
+        message << "shell distance must be finite, > 1 and <= 1e6 object radii, got " << d;
+        break;
+      }
+      if (s > 0 && !(d > distances_in_radii[s - 1])) {
+        message << "shell distances must increase strictly, got " << distances_in_radii[s - 1]
+                << " then " << d;
+        break;
+      }
+    }
+  }
+  if (!message.str().empty()) {
+    if (error != nullptr) *error = message.str();
+    return false;
+  }
   return true;
+}
+
+ViewRenderOptions DatabaseParameters::ShellRender(int shell) const {
+  SILPOSE_ASSERT(shell >= 0 && shell < num_shells());
+  ViewRenderOptions options = render;
+  options.distance_in_radii = distances_in_radii[static_cast<size_t>(shell)];
+  return options;
 }
 
 bool DatabaseParameters::operator==(const DatabaseParameters& other) const {
@@ -123,21 +153,64 @@ bool DatabaseParameters::operator==(const DatabaseParameters& other) const {
          a.view_sphere.kmeans_seed == b.view_sphere.kmeans_seed &&
          a.view_sphere.kmeans_max_iterations == b.view_sphere.kmeans_max_iterations &&
          a.render.resolution_px == b.render.resolution_px &&
-         a.render.distance_in_radii == b.render.distance_in_radii &&
+         a.distances_in_radii == b.distances_in_radii &&
          a.render.fill_fraction == b.render.fill_fraction &&
          a.signature.length == b.signature.length &&
          a.signature.min_area_px == b.signature.min_area_px &&
          a.signature.circular_threshold == b.signature.circular_threshold;
 }
 
-std::span<const float> ModelViews::Signature(int view) const {
-  const size_t length = signatures.size() / views.size();
-  return {signatures.data() + static_cast<size_t>(view) * length, length};
+int ModelViews::num_shells(int num_views_per_shell) const {
+  return num_views_per_shell > 0 ? static_cast<int>(views.size()) / num_views_per_shell : 0;
 }
 
-std::span<float> ModelViews::MutableSignature(int view) {
+namespace {
+size_t RecordIndex(const ModelViews& model, int view, int shell) {
+  const size_t per_shell =
+      model.views_per_shell > 0 ? static_cast<size_t>(model.views_per_shell) : model.views.size();
+  SILPOSE_ASSERT(view >= 0 && static_cast<size_t>(view) < per_shell && shell >= 0);
+  const size_t index = static_cast<size_t>(shell) * per_shell + static_cast<size_t>(view);
+  SILPOSE_ASSERT(index < model.views.size());
+  return index;
+}
+}  // namespace
+
+std::span<const float> ModelViews::Signature(int view, int shell) const {
   const size_t length = signatures.size() / views.size();
-  return {signatures.data() + static_cast<size_t>(view) * length, length};
+  return {signatures.data() + RecordIndex(*this, view, shell) * length, length};
+}
+
+std::span<float> ModelViews::MutableSignature(int view, int shell) {
+  const size_t length = signatures.size() / views.size();
+  return {signatures.data() + RecordIndex(*this, view, shell) * length, length};
+}
+
+const ViewRecord& ModelViews::Record(int view, int shell) const {
+  return views[RecordIndex(*this, view, shell)];
+}
+
+double ViewDatabase::ApparentRadius(int model, int view, int shell) const {
+  const ViewRecord& record = models[static_cast<size_t>(model)].Record(view, shell);
+  if (record.status != SignatureStatus::kOk) return 0.0;
+  return record.mean_radius_px / ViewCamera(parameters.ShellRender(shell)).focal_x_px;
+}
+
+int ViewDatabase::ChooseShell(int model, int view, double apparent_radius) const {
+  const int shells = num_shells();
+  if (shells <= 1 || !(apparent_radius > 0.0) || !std::isfinite(apparent_radius)) return 0;
+  int best = 0;
+  double best_gap = std::numeric_limits<double>::infinity();
+  for (int s = 0; s < shells; ++s) {
+    const double shell_apparent = ApparentRadius(model, view, s);
+    if (!(shell_apparent > 0.0)) continue;
+    const double gap = ShellGap(apparent_radius, shell_apparent,
+                                parameters.distances_in_radii[static_cast<size_t>(s)]);
+    if (gap < best_gap) {
+      best_gap = gap;
+      best = s;
+    }
+  }
+  return best;
 }
 
 int ModelViews::signature_length() const {
@@ -172,7 +245,8 @@ std::string ViewDatabase::Serialize() const {
   out.Put<uint64_t>(parameters.view_sphere.kmeans_seed);
   out.Put<uint32_t>(static_cast<uint32_t>(parameters.view_sphere.kmeans_max_iterations));
   out.Put<uint32_t>(static_cast<uint32_t>(parameters.render.resolution_px));
-  out.Put<double>(parameters.render.distance_in_radii);
+  out.Put<uint32_t>(static_cast<uint32_t>(parameters.num_shells()));
+  for (double d : parameters.distances_in_radii) out.Put<double>(d);
   out.Put<double>(parameters.render.fill_fraction);
   out.Put<uint32_t>(length);
   out.Put<double>(parameters.signature.min_area_px);
@@ -199,8 +273,9 @@ std::string ViewDatabase::Serialize() const {
   // Models.
   out.Put<uint32_t>(static_cast<uint32_t>(models.size()));
   for (const ModelViews& model : models) {
-    SILPOSE_ASSERT(model.views.size() == num_views);
-    SILPOSE_ASSERT(model.signatures.size() == static_cast<size_t>(num_views) * length);
+    const size_t records = static_cast<size_t>(num_views) * parameters.distances_in_radii.size();
+    SILPOSE_ASSERT(model.views.size() == records);
+    SILPOSE_ASSERT(model.signatures.size() == records * length);
     out.PutString(model.name);
     out.PutString(model.source_path);
     out.Put<uint64_t>(model.mesh_hash);
@@ -208,6 +283,15 @@ std::string ViewDatabase::Serialize() const {
     out.Put<double>(model.radius);
     out.Put<uint32_t>(model.num_vertices);
     out.Put<uint32_t>(model.num_triangles);
+    // Stored geometry (may be empty).
+    out.Put<uint32_t>(static_cast<uint32_t>(model.mesh.vertices.size()));
+    out.Put<uint32_t>(static_cast<uint32_t>(model.mesh.triangles.size()));
+    for (const auto& p : model.mesh.vertices) {
+      for (int i = 0; i < 3; ++i) out.Put<float>(p[i]);
+    }
+    for (const auto& t : model.mesh.triangles) {
+      for (uint32_t index : t) out.Put<uint32_t>(index);
+    }
     for (const ViewRecord& view : model.views) {
       out.Put<uint8_t>(static_cast<uint8_t>(view.status));
       out.Put<uint32_t>(view.flags);
@@ -308,7 +392,11 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   parameters.view_sphere.kmeans_max_iterations =
       static_cast<int>(in.Get<uint32_t>("k-means iterations"));
   parameters.render.resolution_px = static_cast<int>(in.Get<uint32_t>("resolution"));
-  parameters.render.distance_in_radii = in.Get<double>("camera distance");
+  const auto num_shells = in.Get<uint32_t>("shell count");
+  if (num_shells < 1 || num_shells > kMaxShells) in.Fail("shell count ", num_shells, " out of range");
+  parameters.distances_in_radii.resize(num_shells);
+  for (double& d : parameters.distances_in_radii) d = in.Get<double>("shell distance");
+  parameters.render.distance_in_radii = parameters.distances_in_radii.front();
   parameters.render.fill_fraction = in.Get<double>("fill fraction");
   const auto length = in.Get<uint32_t>("signature length");
   parameters.signature.length = static_cast<int>(std::min<uint32_t>(length, 1u << 30));
@@ -370,8 +458,8 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
 
   const auto num_models = in.Get<uint32_t>("model count");
   if (num_models > kMaxModels) in.Fail("model count ", num_models, " out of range");
-  const size_t per_model_bytes =
-      static_cast<size_t>(num_views) * (25 + 4 * static_cast<size_t>(length));
+  const size_t num_records = static_cast<size_t>(num_views) * num_shells;
+  const size_t per_model_bytes = num_records * (25 + 4 * static_cast<size_t>(length));
   if (static_cast<size_t>(num_models) * per_model_bytes > in.remaining()) {
     in.Fail(num_models, " models of ", num_views, " views do not fit in the file");
   }
@@ -389,7 +477,26 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       in.Fail("model '", model.name, "' has radius ", model.radius);
     model.num_vertices = in.Get<uint32_t>("vertex count");
     model.num_triangles = in.Get<uint32_t>("triangle count");
-    model.views.resize(num_views);
+    const auto stored_vertices = in.Get<uint32_t>("stored vertex count");
+    const auto stored_triangles = in.Get<uint32_t>("stored triangle count");
+    need(stored_vertices, 3 * sizeof(float), "stored vertices");
+    need(stored_triangles, 3 * sizeof(uint32_t), "stored triangles");
+    model.mesh.name = model.name;
+    model.mesh.vertices.resize(stored_vertices);
+    for (auto& p : model.mesh.vertices) {
+      for (int i = 0; i < 3; ++i) p[i] = in.Get<float>("stored vertices");
+      if (!p.allFinite()) in.Fail("model '", model.name, "' has a non-finite stored vertex");
+    }
+    model.mesh.triangles.resize(stored_triangles);
+    for (auto& t : model.mesh.triangles) {
+      for (size_t i = 0; i < 3; ++i) {
+        const auto index = in.Get<uint32_t>("stored triangles");
+        if (index >= stored_vertices) in.Fail("model '", model.name, "' has a triangle index out of range");
+        t[i] = index;
+      }
+    }
+    model.views_per_shell = static_cast<int>(num_views);
+    model.views.resize(num_records);
     for (ViewRecord& view : model.views) {
       const auto status = in.Get<uint8_t>("view status");
       if (status > static_cast<uint8_t>(SignatureStatus::kTooSmall))
@@ -407,7 +514,7 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
         in.Fail("model '", model.name, "' has a non-finite view record");
       }
     }
-    model.signatures.resize(static_cast<size_t>(num_views) * length);
+    model.signatures.resize(num_records * length);
     in.GetArray<float>(model.signatures, "signatures");
     for (float r : model.signatures) {
       if (!std::isfinite(r) || r < 0.0f) {
@@ -415,10 +522,10 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       }
     }
     // A describable view's radii are divided by their mean: their mean is 1.
-    for (uint32_t v = 0; v < num_views; ++v) {
+    for (size_t v = 0; v < num_records; ++v) {
       if (model.views[v].status != SignatureStatus::kOk) continue;
       double sum = 0.0;
-      for (float r : model.Signature(static_cast<int>(v))) sum += r;
+      for (float r : model.Signature(static_cast<int>(v % num_views), static_cast<int>(v / num_views))) sum += r;
       if (std::abs(sum / length - 1.0) > 1e-3) {
         in.Fail("model '", model.name, "' view ", v, " has a signature that is not normalised");
       }

@@ -9,6 +9,7 @@
 // checksum before it parses anything, and every value after; a truncated, corrupt, foreign or
 // other-version file is refused with a silpose::Error naming the file and the problem.
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -22,11 +23,30 @@
 namespace silpose {
 
 /// Every parameter that shaped a database; two databases with equal parameters are comparable.
+///
+/// Distance shells. A silhouette's shape depends on the distance it is seen from (perspective: at
+/// 3 object radii the near side of an object looks larger than the far side; far away the outline
+/// tends to the orthographic one). The database therefore renders every view from several
+/// distances, `distances_in_radii` (the shells), and a frame is matched against, per object and
+/// view, the shell nearest to the distance that the frame silhouette's apparent size implies for
+/// that view (ViewDatabase::ChooseShell). The perspective change of the outline goes with 1 / D,
+/// so the default shells are spaced about evenly in 1 / D from 3 radii to near-orthographic: every
+/// distance from 3 radii to infinity is within 0.055 of a shell in 1 / D (the paper's single shell
+/// at 3 radii is off by 0.19 at 7 radii and 0.27 at 15). Cost: database size and build time grow
+/// with the number of shells (docs/PERFORMANCE.md).
 struct DatabaseParameters {
   ViewSphereOptions view_sphere;
+  /// Image size and framing of the database renderings. Its distance_in_radii is not used by the
+  /// database: each shell renders at its own distance (ShellRender).
   ViewRenderOptions render;
   SignatureOptions signature;
+  /// Camera distances of the shells, object radii, strictly increasing, each > 1 (1 to 16 shells).
+  /// {3} is the paper's database.
+  std::vector<double> distances_in_radii = {3.0, 4.5, 7.5, 20.0};
 
+  int num_shells() const { return static_cast<int>(distances_in_radii.size()); }
+  /// `render` with the distance of shell `shell`.
+  ViewRenderOptions ShellRender(int shell) const;
   bool Check(std::string* error = nullptr) const;
   bool operator==(const DatabaseParameters& other) const;
 };
@@ -45,7 +65,7 @@ struct ViewRecord {
   float relative_std = 0.0f;
 };
 
-/// All views of one model.
+/// All views of one model, in every distance shell.
 struct ModelViews {
   /// The model's name: its mesh file's stem.
   std::string name;
@@ -58,27 +78,56 @@ struct ModelViews {
   double radius = 0.0;
   uint32_t num_vertices = 0;
   uint32_t num_triangles = 0;
-  /// One record per view.
+  /// The model's geometry (vertices in model units, triangles), kept so that a database alone
+  /// suffices to refine poses against the frame and to draw the model; empty in databases made by
+  /// hand (tests).
+  TriangleMesh mesh;
+  /// One record per view and shell, shell-major: view v of shell s is views[s * N + v], N views.
   std::vector<ViewRecord> views;
-  /// Signatures, view-major: view v is signatures[v * M, (v + 1) * M). Unusable views are all 0.
+  /// Signatures in the same order, M values each: (shell s, view v) is
+  /// signatures[(s * N + v) * M, (s * N + v + 1) * M). Unusable views are all 0.
   std::vector<float> signatures;
 
-  std::span<const float> Signature(int view) const;
-  std::span<float> MutableSignature(int view);
+  /// Shells held (views.size() / N for N views per shell).
+  int num_shells(int num_views_per_shell) const;
+  /// `view` of shell `shell`; view indices are per shell (0..N-1).
+  std::span<const float> Signature(int view, int shell = 0) const;
+  std::span<float> MutableSignature(int view, int shell = 0);
+  const ViewRecord& Record(int view, int shell = 0) const;
   int signature_length() const;
+  /// Views per shell (set by the database; records are views.size() / num_shells of them).
+  int views_per_shell = 0;
 };
+
+/// How far (in 1 / distance, per object radius) a frame silhouette of apparent size
+/// `apparent_radius` is from a shell at `shell_distance_in_radii` where the view's apparent size is
+/// `shell_apparent_radius`: |1 / D - 1 / D_s| with D = D_s a_s / a, i.e. |a / a_s - 1| / D_s.
+inline double ShellGap(double apparent_radius, double shell_apparent_radius,
+                       double shell_distance_in_radii) {
+  return std::abs(apparent_radius / shell_apparent_radius - 1.0) / shell_distance_in_radii;
+}
 
 class ViewDatabase {
  public:
   /// Format version written by this build, and the only one it reads.
-  static constexpr uint32_t kFormatVersion = 1;
+  static constexpr uint32_t kFormatVersion = 2;
 
   DatabaseParameters parameters;
   ViewSphere sphere;
   std::vector<ModelViews> models;
 
   int num_views() const { return sphere.num_views(); }
+  int num_shells() const { return parameters.num_shells(); }
   int signature_length() const { return parameters.signature.length; }
+  /// Apparent size of view `view` of `model` in shell `shell`: its silhouette's mean radius in the
+  /// database image divided by the database camera's focal length (a tangent; 0 if unusable).
+  double ApparentRadius(int model, int view, int shell) const;
+  /// The shell to match view `view` of `model` against, for a frame silhouette of apparent size
+  /// `apparent_radius` (mean radius / focal length, in the on-axis virtual camera: pose/on_axis.h):
+  /// the shell s minimising |1 / D_s - 1 / D|, D = D_s a_s / apparent_radius the distance the
+  /// frame's size implies if it is that view at shell s (a_s = ApparentRadius). 0 when
+  /// apparent_radius is not positive (unknown size) or there is one shell.
+  int ChooseShell(int model, int view, double apparent_radius) const;
   /// Index of the model with this name, or -1.
   int FindModel(const std::string& name) const;
 

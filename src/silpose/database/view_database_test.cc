@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include "silpose/util/error.h"
@@ -21,6 +22,7 @@ ViewDatabase SmallDatabase() {
   parameters.view_sphere.num_bins = 3;
   parameters.signature.length = 32;
   parameters.render.resolution_px = 64;
+  parameters.distances_in_radii = {3.0, 10.0};  // two distance shells
   database.sphere = BuildViewSphere(parameters.view_sphere);
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> radius(0.5f, 1.5f);
@@ -35,21 +37,27 @@ ViewDatabase SmallDatabase() {
     model.radius = 4.25;
     model.num_vertices = 100;
     model.num_triangles = 196;
-    model.views.resize(12);
-    model.signatures.resize(12 * 32);
-    for (int v = 0; v < 12; ++v) {
-      ViewRecord& record = model.views[static_cast<size_t>(v)];
+    // A stored tetrahedron.
+    model.mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1.5f}};
+    model.mesh.triangles = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    model.views_per_shell = 12;
+    model.views.resize(24);
+    model.signatures.resize(24 * 32);
+    for (int index = 0; index < 24; ++index) {
+      const int v = index % 12;
+      const int shell = index / 12;
+      ViewRecord& record = model.views[static_cast<size_t>(index)];
       record.status = v == 5 ? SignatureStatus::kTooSmall : SignatureStatus::kOk;
       record.flags = static_cast<uint32_t>(v % 4);
-      record.mean_radius_px = 20.0f + static_cast<float>(v);
+      record.mean_radius_px = 20.0f + static_cast<float>(v) - 5.0f * static_cast<float>(shell);
       record.centroid_x_px = 31.5f;
       record.centroid_y_px = 30.0f;
       record.area_px = 900.0f;
       record.relative_std = 0.1f;
       if (v != 5) {  // radii divided by their mean, as the builder writes them
         double mean = 0.0;
-        for (float& r : model.MutableSignature(v)) mean += (r = radius(rng));
-        for (float& r : model.MutableSignature(v)) r = static_cast<float>(r / (mean / 32.0));
+        for (float& r : model.MutableSignature(v, shell)) mean += (r = radius(rng));
+        for (float& r : model.MutableSignature(v, shell)) r = static_cast<float>(r / (mean / 32.0));
       }
     }
     database.models.push_back(std::move(model));
@@ -95,15 +103,58 @@ TEST(ViewDatabaseFile, RoundTripKeepsEverything) {
     EXPECT_EQ(a.centre[2], b.centre[2]);
     EXPECT_EQ(a.num_triangles, b.num_triangles);
     EXPECT_EQ(a.signatures, b.signatures);
+    EXPECT_EQ(a.mesh.vertices, b.mesh.vertices);
+    EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
+    EXPECT_EQ(b.views_per_shell, 12);
+    ASSERT_EQ(b.views.size(), 24u);
     for (size_t v = 0; v < a.views.size(); ++v) {
       EXPECT_EQ(a.views[v].status, b.views[v].status);
       EXPECT_EQ(a.views[v].flags, b.views[v].flags);
       EXPECT_EQ(a.views[v].mean_radius_px, b.views[v].mean_radius_px);
     }
   }
+  EXPECT_EQ(loaded.num_shells(), 2);
+  EXPECT_EQ(loaded.parameters.distances_in_radii, (std::vector<double>{3.0, 10.0}));
   EXPECT_EQ(loaded.FindModel("beta"), 1);
   EXPECT_EQ(loaded.FindModel("gamma"), -1);
   EXPECT_EQ(loaded.Serialize(), original.Serialize());
+}
+
+TEST(ViewDatabaseShells, ChoosesTheShellNearestInInverseDistance) {
+  const ViewDatabase database = SmallDatabase();
+  // View 3: mean radius 23 px at 3 radii, 18 px at 10 radii (made-up records), both shells with
+  // the same camera framing, so apparent sizes a_s = r_s / f.
+  const double a3 = database.ApparentRadius(0, 3, 0);
+  const double a10 = database.ApparentRadius(0, 3, 1);
+  ASSERT_GT(a3, 0.0);
+  ASSERT_GT(a10, 0.0);
+  // A frame exactly as large as a shell's view picks that shell.
+  EXPECT_EQ(database.ChooseShell(0, 3, a3), 0);
+  EXPECT_EQ(database.ChooseShell(0, 3, a10), 1);
+  // Seen three times farther than the near shell: 1/D = 1/9, nearer to 1/10 than to 1/3.
+  EXPECT_EQ(database.ChooseShell(0, 3, a3 / 3.0), 1);
+  // Twice as large as the near shell's view (1/D = 2/3): the near shell.
+  EXPECT_EQ(database.ChooseShell(0, 3, 2.0 * a3), 0);
+  // Unknown size: the first shell. An unusable view (5) has no size in either shell.
+  EXPECT_EQ(database.ChooseShell(0, 3, 0.0), 0);
+  EXPECT_EQ(database.ApparentRadius(0, 5, 1), 0.0);
+}
+
+TEST(ViewDatabaseShells, ParametersRefuseBadShells) {
+  DatabaseParameters parameters;
+  std::string error;
+  parameters.distances_in_radii = {};
+  EXPECT_FALSE(parameters.Check(&error));
+  EXPECT_NE(error.find("shells"), std::string::npos) << error;
+  parameters.distances_in_radii = {3.0, 3.0};
+  EXPECT_FALSE(parameters.Check(&error));
+  EXPECT_NE(error.find("increase"), std::string::npos) << error;
+  parameters.distances_in_radii = {0.5};
+  EXPECT_FALSE(parameters.Check(&error));
+  parameters.distances_in_radii = {3.0, std::numeric_limits<double>::infinity()};
+  EXPECT_FALSE(parameters.Check(&error));
+  parameters.distances_in_radii = {3.0, 4.5, 7.5, 20.0};
+  EXPECT_TRUE(parameters.Check(&error)) << error;
 }
 
 TEST(ViewDatabaseFile, EverySingleByteCorruptionIsRefused) {

@@ -79,10 +79,11 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
     result.name = meshes[m].name;
     // Per model, not per query: the mesh's centre and radius, the camera of each scale.
     const Eigen::Vector3d centre = meshes[m].Centre();
-    const double distance = database.parameters.render.distance_in_radii * meshes[m].Radius();
+    // Queries are rendered like the first shell (the matcher's shell without an apparent size).
+    const double distance = database.parameters.distances_in_radii.front() * meshes[m].Radius();
     std::vector<PinholeCamera> cameras;
     for (double scale : options.scales) {
-      ViewRenderOptions render = database.parameters.render;
+      ViewRenderOptions render = database.parameters.ShellRender(0);
       render.resolution_px =
           std::max(32, static_cast<int>(std::lround(render.resolution_px * scale)));
       cameras.push_back(ViewCamera(render));

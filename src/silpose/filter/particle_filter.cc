@@ -10,10 +10,15 @@
 #include <sstream>
 #include <unordered_set>
 
+#include <Eigen/Geometry>
+
 #include "silpose/geometry/view_frame.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
+namespace {
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+}  // namespace
 
 bool ParticleFilterOptions::Check(std::string* error) const {
   std::ostringstream message;
@@ -55,6 +60,23 @@ bool ParticleFilterOptions::Check(std::string* error) const {
   } else if (max_particles_per_object < particles_per_object) {
     message << "max particles per object must be >= particles per object = " << particles_per_object
             << ", got " << max_particles_per_object;
+  } else if (motion_model != MotionModel::kAdaptive && motion_model != MotionModel::kNeighbour) {
+    message << "unknown motion model " << static_cast<int>(motion_model);
+  } else if (!in(rotation_noise_deg, 0.0, 180.0)) {
+    message << "rotation noise must be in [0, 180] degrees, got " << rotation_noise_deg;
+  } else if (!in(rotation_noise_speed_factor, 0.0, 10.0)) {
+    message << "rotation noise speed factor must be in [0, 10], got "
+            << rotation_noise_speed_factor;
+  } else if (!in(velocity_share, 0.0, 1.0)) {
+    message << "velocity share must be in [0, 1], got " << velocity_share;
+  } else if (!(in(velocity_smoothing, 0.0, 1.0) && velocity_smoothing < 1.0)) {
+    message << "velocity smoothing must be in [0, 1), got " << velocity_smoothing;
+  } else if (!(in(max_speed_deg, 0.0, 180.0) && max_speed_deg > 0.0)) {
+    message << "max speed must be in (0, 180] degrees per frame, got " << max_speed_deg;
+  } else if (proposal_views < 1) {
+    message << "proposal views must be >= 1, got " << proposal_views;
+  } else if (!(in(proposal_prior_floor, 0.0, 1.0) && proposal_prior_floor > 0.0)) {
+    message << "proposal prior floor must be in (0, 1], got " << proposal_prior_floor;
   } else if (max_history_frames < 0) {
     message << "max history frames must be >= 0, got " << max_history_frames;
   } else {
@@ -106,8 +128,14 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
                                                sphere.directions[sphere.neighbour_indices[e]]);
     }
   }
-  if (options.guided_reseeding) {
-    // The first harmonics' magnitudes of every view, contiguous per object (BestViewOfObject).
+  view_rotation_.resize(static_cast<size_t>(num_views_));
+  for (int v = 0; v < num_views_; ++v) {
+    view_rotation_[static_cast<size_t>(v)] =
+        CameraFromObjectRotation(sphere.directions[static_cast<size_t>(v)], 0.0);
+  }
+  if (options.guided_reseeding || options.guided_start || options.data_driven_proposal) {
+    // The first harmonics' magnitudes of every view, contiguous per object (BestViewOfObject);
+    // shell 0 (the shells' magnitudes differ little: this only ranks candidates).
     for (int m = 0; m < num_objects_ && ranking_harmonics_ == 0; ++m) {
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
@@ -149,36 +177,79 @@ Particle ParticleFilter::FreshParticle(int object) {
   return particle;
 }
 
-FilterEstimate ParticleFilter::Step(const SignatureSpectrum& frame) {
+FilterEstimate ParticleFilter::Step(const SignatureSpectrum& frame, double apparent_radius) {
   const size_t expected = static_cast<size_t>(spectra_.signature_length() / 2 + 1);
   if (frame.coefficients.size() != expected) {
     ThrowError("frame spectrum has ", frame.coefficients.size(),
                " coefficients, the database's signatures need ", expected);
   }
+  apparent_radius_ = std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
   return Advance(&frame);
 }
 
-FilterEstimate ParticleFilter::Step(std::span<const float> radii) {
+FilterEstimate ParticleFilter::Step(std::span<const float> radii, double apparent_radius) {
   correlator_.Transform(radii, &frame_spectrum_);
+  apparent_radius_ = std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
   return Advance(&frame_spectrum_);
+}
+
+int ParticleFilter::ShellOf(int object, int view) const {
+  return spectra_.ChooseShell(object, view, apparent_radius_);
+}
+
+void ParticleFilter::ObserveRotation(const Eigen::Matrix3d& camera_from_object_on_axis) {
+  if (options_.motion_model != MotionModel::kAdaptive || !have_last_rotation_ ||
+      !camera_from_object_on_axis.allFinite()) {
+    return;
+  }
+  last_rotation_ = camera_from_object_on_axis;
+  if (has_previous_rotation_) {
+    velocity_ = velocity_before_update_;
+    ApplyVelocityObservation(last_rotation_ * previous_rotation_.transpose());
+  }
+}
+
+void ParticleFilter::ApplyVelocityObservation(const Eigen::Matrix3d& change_rotation) {
+  const Eigen::AngleAxisd change(change_rotation);
+  const double angle = change.angle() / last_gap_frames_;
+  if (angle > options_.max_speed_deg * kRadPerDeg) {
+    velocity_.setZero();  // a cut, not motion
+    return;
+  }
+  velocity_ = options_.velocity_smoothing * velocity_ +
+              (1.0 - options_.velocity_smoothing) * angle * change.axis();
+}
+
+void ParticleFilter::UpdateVelocity(const FilterEstimate& estimate) {
+  if (options_.motion_model != MotionModel::kAdaptive) return;
+  if (!estimate.measured || !estimate.roll_known || estimate.object < 0) return;
+  const Eigen::Matrix3d rotation = CameraFromObjectRotation(
+      sphere_.directions[static_cast<size_t>(estimate.view)], estimate.roll_deg);
+  velocity_before_update_ = velocity_;
+  has_previous_rotation_ = have_last_rotation_ && last_object_ == estimate.object;
+  if (has_previous_rotation_) {
+    // A gap of frames without silhouette: the change spreads over them.
+    last_gap_frames_ =
+        static_cast<double>(std::max<int64_t>(1, estimate.frame - last_measured_frame_));
+    previous_rotation_ = last_rotation_;
+    ApplyVelocityObservation(rotation * previous_rotation_.transpose());
+  } else {
+    velocity_.setZero();
+  }
+  last_rotation_ = rotation;
+  last_object_ = estimate.object;
+  last_measured_frame_ = estimate.frame;
+  have_last_rotation_ = true;
 }
 
 FilterEstimate ParticleFilter::Predict() { return Advance(nullptr); }
 
 FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   if (frame_ > 0) PredictParticles();
-  if (frame != nullptr && !measured_once_ && options_.guided_start && frame->has_variance) {
-    // Guided start: every object's first particle at the object's best view for this frame.
-    std::vector<uint8_t> placed(static_cast<size_t>(num_objects_), 0);
-    for (Particle& p : particles_) {
-      if (placed[static_cast<size_t>(p.object)]) continue;
-      placed[static_cast<size_t>(p.object)] = 1;
-      const CandidateView candidate = BestViewOfObject(*frame, p.object);
-      if (candidate.view < 0) continue;
-      p.view = candidate.view;
-      p.roll_deg = candidate.roll_deg;
-      p.roll_known = true;
-    }
+  int proposed = 0;
+  if (frame != nullptr && frame->has_variance && RankingReady() &&
+      (options_.data_driven_proposal || (!measured_once_ && options_.guided_start))) {
+    proposed = Propose(*frame);
   }
   if (frame != nullptr) {
     MeasureParticles(*frame);
@@ -215,11 +286,15 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   const Particle& chosen = particles_[best];
   estimate.object = chosen.object;
   estimate.view = chosen.view;
+  estimate.shell = frame != nullptr ? ShellOf(chosen.object, chosen.view) : 0;
+  estimate.proposed = proposed;
   estimate.roll_deg = chosen.roll_known ? chosen.roll_deg : 0.0;
   estimate.roll_known = chosen.roll_known;
   estimate.score = chosen.score;
   estimate.weight = chosen.weight;
   best_history_ = chosen.history;
+  UpdateVelocity(estimate);
+  estimate.speed_deg = velocity_.norm() / kRadPerDeg;
 
   if (estimate.effective_particles <
       options_.resample_threshold * static_cast<double>(particles_.size())) {
@@ -315,11 +390,16 @@ void ParticleFilter::PredictParticles() {
   // Views and rolls.
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> roll_noise(0.0, options_.roll_noise_deg);
+  std::normal_distribution<double> normal(0.0, 1.0);
   for (Particle& p : particles_) {
     if (options_.jump_probability > 0.0 && uniform(rng_) < options_.jump_probability) {
       p.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
       p.roll_known = false;
       p.roll_deg = 0.0;
+      continue;
+    }
+    if (options_.motion_model == MotionModel::kAdaptive) {
+      PredictAdaptive(p, normal);
       continue;
     }
     if (uniform(rng_) >= options_.stay_probability) {
@@ -339,12 +419,153 @@ void ParticleFilter::PredictParticles() {
   }
 }
 
+void ParticleFilter::PredictAdaptive(Particle& p, std::normal_distribution<double>& normal) {
+  const double sigma_rad =
+      (options_.rotation_noise_deg + options_.rotation_noise_speed_factor *
+                                         (velocity_.norm() / kRadPerDeg)) * kRadPerDeg;
+  if (!p.roll_known) {
+    // No orientation yet (never measured, or jumped): only the view diffuses.
+    const Eigen::Vector3d& d = sphere_.directions[static_cast<size_t>(p.view)];
+    const Eigen::Vector3d noise(normal(rng_) * sigma_rad, normal(rng_) * sigma_rad,
+                                normal(rng_) * sigma_rad);
+    const double angle = noise.norm();
+    const Eigen::Vector3d moved =
+        angle > 0.0 ? Eigen::AngleAxisd(angle, noise / angle) * d : d;
+    p.view = NearestView(p.view, moved);
+    return;
+  }
+  // The camera orientation: roll about the optical axis after the view's roll-0 rotation.
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(p.roll_deg * kRadPerDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix()
+          .transpose() * view_rotation_[static_cast<size_t>(p.view)];
+  Eigen::Vector3d step(normal(rng_) * sigma_rad, normal(rng_) * sigma_rad,
+                       normal(rng_) * sigma_rad);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::Matrix3d moved = rotation;
+  if (options_.velocity_share > 0.0 && velocity_.squaredNorm() > 0.0 &&
+      uniform(rng_) < options_.velocity_share) {
+    moved = Eigen::AngleAxisd(velocity_.norm(), velocity_.normalized()).toRotationMatrix() * moved;
+  }
+  const double angle = step.norm();
+  if (angle > 0.0) moved = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * moved;
+  // The camera looks along -view: its optical axis (row 2) is -view_dir in the object frame.
+  const Eigen::Vector3d view_dir = -moved.row(2).transpose();
+  const int view = NearestView(p.view, view_dir);
+  // Roll of the moved orientation at the snapped view: the rotation about the optical axis that
+  // best turns the view's roll-0 camera into it (exact when the view is the moved direction).
+  const Eigen::Matrix3d relative = moved * view_rotation_[static_cast<size_t>(view)].transpose();
+  p.view = view;
+  p.roll_deg = WrapDegrees(std::atan2(relative(0, 1), relative(0, 0)) / kRadPerDeg);
+}
+
+int ParticleFilter::NearestView(int start, const Eigen::Vector3d& direction) const {
+  int current = start;
+  double current_dot = sphere_.directions[static_cast<size_t>(current)].dot(direction);
+  for (int step = 0; step < 4 * num_views_; ++step) {
+    int best = current;
+    double best_dot = current_dot;
+    for (const uint32_t n : sphere_.Neighbours(current)) {
+      const double dot = sphere_.directions[n].dot(direction);
+      if (dot > best_dot) {
+        best_dot = dot;
+        best = static_cast<int>(n);
+      }
+    }
+    if (best == current) break;
+    current = best;
+    current_dot = best_dot;
+  }
+  return current;
+}
+
+int ParticleFilter::Propose(const SignatureSpectrum& frame) {
+  // Object masses and mean particle weights before the proposal.
+  const auto num_objects = static_cast<size_t>(num_objects_);
+  std::vector<double> mass(num_objects, 0.0);
+  std::vector<int> count(num_objects, 0);
+  for (const Particle& p : particles_) {
+    mass[static_cast<size_t>(p.object)] += p.weight;
+    ++count[static_cast<size_t>(p.object)];
+  }
+  const auto top = static_cast<int>(std::max_element(mass.begin(), mass.end()) - mass.begin());
+  std::vector<size_t> begin(num_objects + 1, particles_.size());
+  for (size_t i = particles_.size(); i-- > 0;) begin[static_cast<size_t>(particles_[i].object)] = i;
+  for (size_t o = num_objects; o-- > 0;) begin[o] = std::min(begin[o], begin[o + 1]);
+  int proposed = 0;
+  std::vector<size_t> order;
+  for (int o = 0; o < num_objects_; ++o) {
+    const auto object = static_cast<size_t>(o);
+    if (count[object] == 0) continue;
+    const int wanted = o == top && measured_once_ ? options_.proposal_views : 1;
+    const std::vector<CandidateView> candidates = BestViewsOfObject(frame, o, wanted);
+    if (candidates.empty()) continue;
+    // The object's particles by increasing weight: the lightest are replaced.
+    order.clear();
+    for (size_t i = begin[object]; i < begin[object + 1]; ++i) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return particles_[a].weight < particles_[b].weight;
+    });
+    const double mean_weight = mass[object] / count[object];
+    // Prior of each candidate place, from the predicted particles (before any is replaced).
+    // The proposed particle continues the history of the heaviest particle there (or of the
+    // object's heaviest): where the sequence's evidence for that place comes from.
+    std::vector<double> prior(candidates.size(), 0.0);
+    std::vector<std::shared_ptr<const HistoryNode>> parent(candidates.size());
+    size_t heaviest = begin[object];
+    for (size_t i = begin[object]; i < begin[object + 1]; ++i) {
+      if (particles_[i].weight > particles_[heaviest].weight) heaviest = i;
+    }
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      const int view = candidates[c].view;
+      const std::span<const uint32_t> neighbours = sphere_.Neighbours(view);
+      double local = 0.0;
+      int local_count = 0;
+      size_t local_heaviest = heaviest;
+      for (size_t i = begin[object]; i < begin[object + 1]; ++i) {
+        const Particle& p = particles_[i];
+        if (p.view == view || std::find(neighbours.begin(), neighbours.end(),
+                                        static_cast<uint32_t>(p.view)) != neighbours.end()) {
+          if (local_count == 0 || p.weight > particles_[local_heaviest].weight) local_heaviest = i;
+          local += p.weight;
+          ++local_count;
+        }
+      }
+      parent[c] = particles_[local_heaviest].history;
+      const double local_mean = local_count > 0 ? local / local_count : 0.0;
+      prior[c] = std::max(local_mean, options_.proposal_prior_floor * mean_weight);
+      if (!measured_once_) prior[c] = mean_weight;  // the start: every place equally likely
+    }
+    const size_t replace = std::min(candidates.size(), order.size());
+    for (size_t c = 0; c < replace; ++c) {
+      Particle& p = particles_[order[c]];
+      p.view = candidates[c].view;
+      p.roll_deg = candidates[c].roll_deg;
+      p.roll_known = true;
+      p.score = candidates[c].score;
+      p.weight = prior[c];
+      p.history = parent[c];
+      ++proposed;
+    }
+  }
+  double total = 0.0;
+  for (const Particle& p : particles_) total += p.weight;
+  if (total > 0.0 && std::isfinite(total)) {
+    for (Particle& p : particles_) p.weight /= total;
+  }
+  return proposed;
+}
+
 void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
   // A signature without variance (a nearly circular silhouette after smoothing) says nothing.
   if (!frame.has_variance) return;
   const int length = spectra_.signature_length();
   const double bins_per_degree = length / 360.0;
-  const double window_bins = options_.roll_search_deg * bins_per_degree;
+  const double window_deg =
+      std::min(180.0, options_.roll_search_deg +
+                          (options_.motion_model == MotionModel::kAdaptive
+                               ? velocity_.norm() / kRadPerDeg
+                               : 0.0));
+  const double window_bins = window_deg * bins_per_degree;
   // Group the particles by (object, view): linked lists through group_next_.
   group_next_.resize(particles_.size());
   touched_groups_.clear();
@@ -361,13 +582,14 @@ void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
     const int view = key % num_views_;
     const int32_t head = group_head_[static_cast<size_t>(key)];
     group_head_[static_cast<size_t>(key)] = -1;
-    if (!spectra_.Usable(object, view)) {
+    const int shell = ShellOf(object, view);
+    if (!spectra_.Usable(object, view, shell)) {
       for (int32_t i = head; i >= 0; i = group_next_[static_cast<size_t>(i)]) {
         particles_[static_cast<size_t>(i)].score = -1.0f;
       }
       continue;
     }
-    const SignatureSpectrum& reference = spectra_.Get(object, view);
+    const SignatureSpectrum& reference = spectra_.Get(object, view, shell);
     group_starts_.clear();
     group_members_.clear();
     bool any_unknown = false;
@@ -424,7 +646,13 @@ void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
 
 ParticleFilter::CandidateView ParticleFilter::BestViewOfObject(const SignatureSpectrum& frame,
                                                                int object) {
-  CandidateView best;
+  const std::vector<CandidateView> best = BestViewsOfObject(frame, object, 1);
+  return best.empty() ? CandidateView{} : best.front();
+}
+
+std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
+    const SignatureSpectrum& frame, int object, int count) {
+  std::vector<CandidateView> best;
   if (!frame.has_variance || ranking_harmonics_ == 0) return best;
   // Rank the object's views by the low-harmonic part of the spectral bound: the frame's weighted
   // magnitudes (as CircularCorrelator::Transform(..., weighted = true) makes them) against every
@@ -441,19 +669,21 @@ ParticleFilter::CandidateView ParticleFilter::BestViewOfObject(const SignatureSp
   for (int v = 0; v < num_views_; ++v) {
     if (spectra_.Usable(object, v)) bounds_.push_back({ranking_[v], v});
   }
-  // Correlate the guided_candidates best ranked views exactly; keep the best.
-  const auto candidates = std::min(bounds_.size(), static_cast<size_t>(options_.guided_candidates));
+  // Correlate the guided_candidates best ranked views exactly (each in its shell).
+  const auto candidates = std::min(
+      bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
   std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(candidates),
                     bounds_.end(), std::greater<>());
   for (size_t c = 0; c < candidates; ++c) {
     const int view = bounds_[c].second;
-    const CorrelationPeak peak = correlator_.Peak(frame, spectra_.Get(object, view));
-    if (best.view < 0 || peak.score > best.score) {
-      best.view = view;
-      best.score = peak.score;
-      best.roll_deg = peak.RollDeg(spectra_.signature_length());
-    }
+    const int shell = ShellOf(object, view);
+    if (!spectra_.Usable(object, view, shell)) continue;
+    const CorrelationPeak peak = correlator_.Peak(frame, spectra_.Get(object, view, shell));
+    best.push_back({view, peak.RollDeg(spectra_.signature_length()), peak.score});
   }
+  std::sort(best.begin(), best.end(),
+            [](const CandidateView& a, const CandidateView& b) { return a.score > b.score; });
+  if (best.size() > static_cast<size_t>(count)) best.resize(static_cast<size_t>(count));
   return best;
 }
 
@@ -521,7 +751,9 @@ void ParticleFilter::Resample(const std::vector<double>& object_mass,
     if (drawn[o] < floor) {
       fresh = static_cast<int>(std::lround(options_.reseed_fraction * count[o]));
     }
-    const bool guided = options_.guided_reseeding && frame != nullptr && frame->has_variance;
+    // With the data-driven proposal every frame gets the best views anyway.
+    const bool guided = options_.guided_reseeding && !options_.data_driven_proposal &&
+                        frame != nullptr && frame->has_variance && RankingReady();
     if (guided) fresh = std::clamp(fresh, 1, count[o]);
     const double weight = object_mass[o] / count[o];
     if (own.empty()) {

@@ -20,19 +20,50 @@
 //       each particle's weight scaled with its object's mass: the object in view may change.
 //       Not in the paper: without it an object absent for a while keeps a mass so small that it
 //       needs as many frames to come back.
-//     - View: with jump_probability a uniformly random view of the same object (roll unknown
-//       again: recovery from a wrong mode); else with stay_probability the same view; else one of
-//       the view's neighbours (ViewSphere::Neighbours), chosen uniformly.
-//     - Roll: carried along by parallel transport (TransportRoll, which is additive in the roll:
-//       one constant per directed edge of the neighbour graph, precomputed) plus Gaussian noise
-//       of roll_noise_deg.
+//     - View and roll (MotionModel::kAdaptive, the default). Objects turned by hand move at 0 to
+//       30 degrees per frame, pause, turn back and jump (cuts); the paper's one-neighbour step
+//       (about 6 degrees) cannot follow them. The camera orientation R (camera_from_object, the
+//       on-axis camera of view and roll) is moved in SO(3) and then snapped to the nearest view:
+//         R' = Exp(n) Exp(w) R   for a share velocity_share of the particles (constant velocity),
+//         R' = Exp(n) R          for the others (the object may have stopped or be turning back),
+//       with w the filter's angular velocity (below) and n ~ N(0, sigma^2 I) a rotation vector
+//       of sigma = rotation_noise_deg + rotation_noise_speed_factor |w|: a random walk whose
+//       step adapts to the speed. The nearest database view to R's view direction is found by
+//       greedy descent over the neighbour graph from the particle's view, and the roll is the
+//       one of R' at that view (TransportRoll), so the roll is carried along exactly.
+//       The velocity w is a state of the filter: after each measured frame the rotation between
+//       the last two estimates, R_t R_{t-1}^T (as a rotation vector, in the camera frame), is
+//       averaged into w with weight 1 - velocity_smoothing; a change larger than max_speed_deg
+//       is taken as a cut and resets w to 0. The tracker may pass the refined (continuous) pose
+//       instead of the grid estimate (ObserveRotation). With probability jump_probability a
+//       particle instead jumps to a uniformly random view (roll unknown again).
+//       MotionModel::kNeighbour is the paper's model: with stay_probability the same view, else
+//       one of the view's neighbours (ViewSphere::Neighbours) with the roll transported along
+//       the edge (TransportRoll, one constant per directed edge) plus Gaussian noise of
+//       roll_noise_deg; jumps as above.
+//     - Data-driven proposal (mixture proposal, data_driven_proposal, default on): a share of the
+//       particles is drawn from the frame's best database views instead of the motion model.
+//       Every object gets one particle at its best view for the frame, and the most probable
+//       object proposal_views of them (its best views, ranked as in guided reseeding below and
+//       correlated exactly); each replaces the object's lightest particle. Its weight is the
+//       prior the motion model gives that place, so the proposal cannot overrule the sequence's
+//       evidence: the mean weight of the object's predicted particles on that view and its
+//       neighbours, but at least proposal_prior_floor times the object's mean particle weight
+//       (what lets a cut or a lost track be picked up within a frame or two). With a proposal,
+//       the view of a fast-moving object is in the particle set in the frame it is seen, while
+//       an ambiguous frame (a mirror-twin view, a degraded silhouette) cannot pull the estimate
+//       away: the twin's proposal starts with little weight and has to keep winning.
+//       The guided start below is the same proposal at the first silhouette.
 //  2. Measurement (Step only). Each particle's similarity s is the circular correlation of the
 //     frame with its (object, view) reference at the nearest local peak within roll_search_deg
 //     of its predicted roll (CircularCorrelator::LocalPeaks), and the particle's roll moves to
 //     that peak: the roll stays coherent from frame to frame, and a symmetric shape's other peak
 //     cannot make it jump. A particle without a roll takes the global peak. All particles on one
 //     (object, view) share one correlation (one short inverse FFT) and each distinct peak's
-//     refinement. Views whose database silhouette was unusable score -1. A frame signature
+//     refinement. The roll window grows with the filter's speed (roll_search_deg + |w|). Each
+//     (object, view) is correlated in the distance shell the frame's apparent size implies for it
+//     (ViewDatabase::ChooseShell; shell 0 when no size is given). Views whose database silhouette
+//     was unusable score -1. A frame signature
 //     without variance (after smoothing) carries no information and changes nothing.
 //     Likelihood, per particle: L = exp(lambda (s - s_best)) + f, then w <- w L, normalised;
 //     s_best = the frame's best particle score, lambda = likelihood_sharpness = 100,
@@ -146,6 +177,14 @@
 
 namespace silpose {
 
+/// How particles move between frames (step 1 above).
+enum class MotionModel : uint8_t {
+  /// Rotation random walk with an adaptive step and a velocity state, snapped to the view grid.
+  kAdaptive = 0,
+  /// The paper's: stay or move to one neighbouring view.
+  kNeighbour = 1,
+};
+
 /// Which particle a frame's estimate reports (step 3 above).
 enum class EstimateRule : uint8_t {
   /// Object of largest mass, then the view neighbourhood of largest weight, then its heaviest
@@ -172,8 +211,30 @@ struct ParticleFilterOptions {
   /// 1 resamples unless all weights are equal.
   double resample_threshold = 2.0 / 3.0;
 
-  /// Motion model: probability that a particle keeps its view in one frame; otherwise it moves to
-  /// a uniformly chosen neighbour. In [0, 1]. At 1 degree per frame the true nearest view changes
+  /// Motion model (step 1 above).
+  MotionModel motion_model = MotionModel::kAdaptive;
+  /// kAdaptive: rotation noise per axis when the object is still, degrees (>= 0), and its growth
+  /// with the speed |w| (>= 0): sigma = rotation_noise_deg + rotation_noise_speed_factor |w|.
+  double rotation_noise_deg = 3.0;
+  double rotation_noise_speed_factor = 0.5;
+  /// kAdaptive: share of the particles moved with the velocity w, in [0, 1]; the others assume
+  /// the object stopped.
+  double velocity_share = 0.5;
+  /// kAdaptive: weight of the old velocity in its update, in [0, 1).
+  double velocity_smoothing = 0.5;
+  /// kAdaptive: a change of camera orientation between two frames larger than this (degrees) is
+  /// a cut, not motion: the velocity is reset. > 0.
+  double max_speed_deg = 45.0;
+  /// Mixture proposal from the frame's best views (step 1 above).
+  bool data_driven_proposal = true;
+  /// Particles of the most probable object placed at its best views each frame (>= 1; other
+  /// objects get one).
+  int proposal_views = 3;
+  /// Least weight of a proposed particle, relative to its object's mean particle weight, in
+  /// (0, 1].
+  double proposal_prior_floor = 0.2;
+  /// Motion model kNeighbour: probability that a particle keeps its view in one frame; otherwise
+  /// it moves to a uniformly chosen neighbour. In [0, 1]. At 1 degree per frame the true nearest view changes
   /// every ~6 frames (1000 views, 6.4 degree spacing). Insensitive with guided reseeding (tuning
   /// set, 20 % degraded: pose error 0.0605 / 0.0604 / 0.0603 for 0.3 / 0.5 / 0.7); without it
   /// 0.3 and 0.7 were worse than 0.5 (0.070 and 0.067 against 0.061).
@@ -184,7 +245,8 @@ struct ParticleFilterOptions {
   /// degraded); with it, it changes nothing measurable (0.0604 either way) and costs about
   /// 0.08 ms per frame for 1200 particles (global peak searches): cheap insurance.
   double jump_probability = 0.03;
-  /// Standard deviation of the Gaussian roll noise added in each prediction, degrees. >= 0.
+  /// kNeighbour: standard deviation of the Gaussian roll noise added in each prediction, degrees.
+  /// >= 0.
   /// The measurement moves the roll to the local peak anyway: 0.5 and 2 gave 0.0602 and 0.0601.
   double roll_noise_deg = 1.0;
   /// Half-width of the window around the predicted roll in which the measurement looks for the
@@ -202,7 +264,8 @@ struct ParticleFilterOptions {
   /// resampling. In [0, 1].
   double reseed_fraction = 0.5;
   /// At each resampling one particle of every object moves to the object's best view for the
-  /// frame (step 5). Off: the paper's filter, with uniform reseeding only.
+  /// frame (step 5). Not needed with data_driven_proposal, which does the same every frame (it is
+  /// skipped then). Off (and no proposal): the paper's filter, with uniform reseeding only.
   bool guided_reseeding = true;
   /// At the first frame with a silhouette, one particle of every object starts at the object's
   /// best view for it (found as in guided reseeding) instead of a random one, so that every
@@ -297,10 +360,16 @@ struct FilterEstimate {
   /// view, roll (0 while unknown), last correlation and weight.
   int object = -1;
   int view = -1;
+  /// Distance shell the view was measured in (ViewDatabase::ChooseShell for the frame's size).
+  int shell = 0;
   double roll_deg = 0.0;
   bool roll_known = false;
   float score = 0.0f;
   double weight = 0.0;
+  /// The filter's angular speed |w| after this frame, degrees per frame (kAdaptive).
+  double speed_deg = 0.0;
+  /// Particles placed by the data-driven proposal in this frame.
+  int proposed = 0;
   /// Each object's share of the total weight (sums to 1), after the measurement.
   std::vector<double> object_probability;
   /// Particles per object during this frame's measurement (before resampling).
@@ -326,9 +395,15 @@ class ParticleFilter {
   /// One frame with a measurement: `frame` must come from a CircularCorrelator of the spectra's
   /// length and CorrelationOptions (ViewSpectra::options()), e.g. correlator().Transform(radii).
   /// Throws silpose::Error for a spectrum of another length.
-  FilterEstimate Step(const SignatureSpectrum& frame);
+  /// `apparent_radius`: the frame silhouette's mean radius / focal length in the on-axis virtual
+  /// camera (pose/on_axis.h), which chooses each view's distance shell; 0 = unknown (shell 0).
+  FilterEstimate Step(const SignatureSpectrum& frame, double apparent_radius = 0.0);
   /// Same, from a signature's radii (PolarSignature::radii).
-  FilterEstimate Step(std::span<const float> radii);
+  FilterEstimate Step(std::span<const float> radii, double apparent_radius = 0.0);
+  /// Replaces the last estimate's camera orientation (camera_from_object of the on-axis camera,
+  /// as CameraFromObjectRotation(view, roll) gives it) by a better one, e.g. a refined pose, for
+  /// the velocity update of the next frame. Call after Step, before the next frame.
+  void ObserveRotation(const Eigen::Matrix3d& camera_from_object_on_axis);
   /// One frame without a measurement (no usable silhouette): prediction, estimate, history.
   FilterEstimate Predict();
 
@@ -351,6 +426,11 @@ class ParticleFilter {
  private:
   FilterEstimate Advance(const SignatureSpectrum* frame);
   void PredictParticles();
+  void PredictAdaptive(Particle& particle, std::normal_distribution<double>& normal);
+  int NearestView(int start, const Eigen::Vector3d& direction) const;
+  int Propose(const SignatureSpectrum& frame);
+  void UpdateVelocity(const FilterEstimate& estimate);
+  void ApplyVelocityObservation(const Eigen::Matrix3d& change_rotation);
   void MeasureParticles(const SignatureSpectrum& frame);
   void Resample(const std::vector<double>& object_mass, const SignatureSpectrum* frame);
   struct CandidateView {
@@ -359,6 +439,12 @@ class ParticleFilter {
     float score = 0.0f;
   };
   CandidateView BestViewOfObject(const SignatureSpectrum& frame, int object);
+  /// The `count` best views of `object` for the frame, best first (exact scores of the
+  /// guided_candidates best ranked; at most that many).
+  std::vector<CandidateView> BestViewsOfObject(const SignatureSpectrum& frame, int object,
+                                               int count);
+  int ShellOf(int object, int view) const;
+  bool RankingReady() const { return ranking_harmonics_ > 0; }
   void CutHistory(int64_t oldest_kept_frame);
   Particle FreshParticle(int object);
   size_t MostProbableAreaParticle(const FilterEstimate& estimate);
@@ -372,6 +458,23 @@ class ParticleFilter {
   std::mt19937_64 rng_;
   int64_t frame_ = 0;
   bool measured_once_ = false;
+  /// Frame silhouette's apparent size of the current measurement (0 = unknown).
+  double apparent_radius_ = 0.0;
+  /// Velocity state (kAdaptive): rotation vector per frame, camera frame, radians.
+  Eigen::Vector3d velocity_ = Eigen::Vector3d::Zero();
+  /// The last measured estimate's orientation, object and frame, for the velocity update.
+  Eigen::Matrix3d last_rotation_ = Eigen::Matrix3d::Identity();
+  int last_object_ = -1;
+  int64_t last_measured_frame_ = -1;
+  bool have_last_rotation_ = false;
+  /// The orientation before the last one, the velocity before the last update and the frames
+  /// between the two (so ObserveRotation can redo the update).
+  Eigen::Matrix3d previous_rotation_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d velocity_before_update_ = Eigen::Vector3d::Zero();
+  double last_gap_frames_ = 1.0;
+  bool has_previous_rotation_ = false;
+  /// Per view: camera_from_object at roll 0 (kAdaptive prediction).
+  std::vector<Eigen::Matrix3d> view_rotation_;
   /// Sorted by object (resampling keeps them so).
   std::vector<Particle> particles_;
   std::shared_ptr<const HistoryNode> best_history_;

@@ -1,6 +1,8 @@
 #include "silpose/match/view_matcher.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <queue>
 #include <sstream>
 
@@ -20,32 +22,84 @@ bool MatchOptions::Check(std::string* error) const {
 }
 
 ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options)
-    : options_(options),
+    : database_(database),
+      options_(options),
       num_models_(static_cast<int>(database.models.size())),
       num_views_(database.sphere.num_views()),
+      num_shells_(database.num_shells()),
       signature_length_(database.parameters.signature.length) {
-  CircularCorrelator correlator(signature_length_, options);
-  spectra_.resize(static_cast<size_t>(num_models_) * static_cast<size_t>(num_views_));
-  usable_.resize(spectra_.size());
+  const size_t blocks = static_cast<size_t>(num_models_) * static_cast<size_t>(num_shells_);
+  blocks_.resize(blocks);
+  once_ = std::make_unique<std::once_flag[]>(blocks);
+  usable_.assign(blocks * static_cast<size_t>(num_views_), 0);
+  apparent_.assign(usable_.size(), 0.0f);
   for (int m = 0; m < num_models_; ++m) {
     const ModelViews& model = database.models[static_cast<size_t>(m)];
-    for (int v = 0; v < num_views_; ++v) {
-      const size_t index =
-          static_cast<size_t>(m) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
-      // A view is searched if its silhouette was described and has a shape (not a perfect circle).
-      if (model.views[static_cast<size_t>(v)].status == SignatureStatus::kOk) {
-        correlator.Transform(model.Signature(v), &spectra_[index]);
-        usable_[index] = spectra_[index].has_variance;
+    if (model.views.size() != static_cast<size_t>(num_views_) * static_cast<size_t>(num_shells_)) {
+      ThrowError("model '", model.name, "' has ", model.views.size(), " view records, expected ",
+                 num_views_, " views x ", num_shells_, " shells");
+    }
+    for (int s = 0; s < num_shells_; ++s) {
+      for (int v = 0; v < num_views_; ++v) {
+        const size_t index = Index(m, s) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
+        // A view is searched if its silhouette was described and has a shape (not a perfect
+        // circle): radii with no spread are constant after normalisation.
+        const ViewRecord& record = model.Record(v, s);
+        usable_[index] = record.status == SignatureStatus::kOk;
+        if (usable_[index]) {
+          float low = 1.0f, high = 1.0f;
+          for (float r : model.Signature(v, s)) {
+            low = std::min(low, r);
+            high = std::max(high, r);
+          }
+          usable_[index] = high - low > 1e-6f;
+        }
+        apparent_[index] = static_cast<float>(database.ApparentRadius(m, v, s));
       }
     }
   }
 }
 
+const std::vector<SignatureSpectrum>& ViewSpectra::Block(int model, int shell) const {
+  const size_t block = Index(model, shell);
+  std::call_once(once_[block], [&] {
+    CircularCorrelator correlator(signature_length_, options_);
+    std::vector<SignatureSpectrum>& spectra = blocks_[block];
+    spectra.resize(static_cast<size_t>(num_views_));
+    const ModelViews& views = database_.models[static_cast<size_t>(model)];
+    for (int v = 0; v < num_views_; ++v) {
+      if (views.Record(v, shell).status == SignatureStatus::kOk) {
+        correlator.Transform(views.Signature(v, shell), &spectra[static_cast<size_t>(v)]);
+      }
+    }
+  });
+  return blocks_[block];
+}
+
+int ViewSpectra::ChooseShell(int model, int view, double apparent_radius) const {
+  if (num_shells_ <= 1 || !(apparent_radius > 0.0) || !std::isfinite(apparent_radius)) return 0;
+  int best = 0;
+  double best_gap = std::numeric_limits<double>::infinity();
+  for (int s = 0; s < num_shells_; ++s) {
+    const double shell_apparent =
+        apparent_[Index(model, s) * static_cast<size_t>(num_views_) + static_cast<size_t>(view)];
+    if (!(shell_apparent > 0.0)) continue;
+    const double gap = ShellGap(apparent_radius, shell_apparent,
+                                database_.parameters.distances_in_radii[static_cast<size_t>(s)]);
+    if (gap < best_gap) {
+      best_gap = gap;
+      best = s;
+    }
+  }
+  return best;
+}
+
 ViewMatcher::ViewMatcher(const ViewSpectra& spectra)
     : spectra_(spectra), correlator_(spectra.signature_length(), spectra.options()) {}
 
-CorrelationPeak ViewMatcher::Score(const SignatureSpectrum& query, int model, int view) {
-  return correlator_.Peak(query, spectra_.Get(model, view));
+CorrelationPeak ViewMatcher::Score(const SignatureSpectrum& query, int model, int view,
+                                   int shell) {
+  return correlator_.Peak(query, spectra_.Get(model, view, shell));
 }
 
 std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
@@ -66,8 +120,8 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
   correlator_.Transform(radii, &query_, /*weighted=*/true);
   stats_ = {};
 
-  auto make_candidate = [&](int model, int view, const CorrelationPeak& peak) {
-    return MatchCandidate{model, view, peak.RollDeg(length), peak.score};
+  auto make_candidate = [&](int model, int view, int shell, const CorrelationPeak& peak) {
+    return MatchCandidate{model, view, shell, peak.RollDeg(length), peak.score};
   };
   auto better = [](const MatchCandidate& a, const MatchCandidate& b) {
     if (a.score != b.score) return a.score > b.score;
@@ -88,8 +142,9 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
   if (options.exhaustive) {
     for (int m : models) {
       for (int v = 0; v < spectra_.num_views(); ++v) {
-        if (!spectra_.Usable(m, v)) continue;
-        offer(make_candidate(m, v, correlator_.Peak(query_, spectra_.Get(m, v))));
+        const int shell = spectra_.ChooseShell(m, v, options.apparent_radius);
+        if (!spectra_.Usable(m, v, shell)) continue;
+        offer(make_candidate(m, v, shell, correlator_.Peak(query_, spectra_.Get(m, v, shell))));
         ++stats_.views_correlated;
       }
     }
@@ -98,9 +153,11 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
     bounds.clear();
     for (int m : models) {
       for (int v = 0; v < spectra_.num_views(); ++v) {
-        if (!spectra_.Usable(m, v)) continue;
+        const int shell = spectra_.ChooseShell(m, v, options.apparent_radius);
+        if (!spectra_.Usable(m, v, shell)) continue;
         bounds.push_back(
-            {CorrelationUpperBound(query_.magnitudes, spectra_.Get(m, v).magnitudes), m, v});
+            {CorrelationUpperBound(query_.magnitudes, spectra_.Get(m, v, shell).magnitudes), m, v,
+             shell});
       }
     }
     stats_.views_bounded = static_cast<int>(bounds.size());
@@ -116,8 +173,8 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
       }
       std::pop_heap(bounds.begin(), bounds.end());
       bounds.pop_back();
-      offer(make_candidate(next.model, next.view,
-                           correlator_.Peak(query_, spectra_.Get(next.model, next.view))));
+      offer(make_candidate(next.model, next.view, next.shell,
+                           correlator_.Peak(query_, spectra_.Get(next.model, next.view, next.shell))));
       ++stats_.views_correlated;
     }
   }

@@ -9,6 +9,8 @@
 // search. `exhaustive` correlates every view (for checking and benchmarking).
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -25,6 +27,10 @@ struct MatchOptions {
   bool exhaustive = false;
   /// Restrict the search to these model indices; empty = all models.
   std::vector<int> models;
+  /// Apparent size of the query silhouette (mean radius / focal length in the on-axis virtual
+  /// camera, pose/on_axis.h). Each view is matched against the distance shell this size implies
+  /// for it (ViewDatabase::ChooseShell); 0 = unknown: the first (nearest) shell.
+  double apparent_radius = 0.0;
 
   bool Check(std::string* error = nullptr) const;
 };
@@ -32,6 +38,8 @@ struct MatchOptions {
 struct MatchCandidate {
   int model = -1;
   int view = -1;
+  /// Distance shell the view was matched in.
+  int shell = 0;
   /// Camera roll in degrees, (-180, 180] (geometry/view_frame.h).
   double roll_deg = 0.0;
   /// Correlation peak in [-1, 1].
@@ -44,33 +52,55 @@ struct MatchStats {
   int views_correlated = 0;
 };
 
-/// Holds the spectra of every database view. Building it costs one FFT per view; searching is
-/// read-only on it but uses per-object scratch space, so use one ViewMatcher per thread (they can
-/// share one ViewSpectra).
+/// Holds the spectra of every database view, in every distance shell. A shell's spectra are
+/// computed when a model's shell is first used (one FFT per view; thread-safe), so a sequence seen
+/// at one distance never pays for the others. Searching is read-only on it but uses per-object
+/// scratch space, so use one ViewMatcher per thread (they can share one ViewSpectra). `database`
+/// must outlive it.
 class ViewSpectra {
  public:
   explicit ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options = {});
-  const SignatureSpectrum& Get(int model, int view) const {
-    return spectra_[static_cast<size_t>(model) * static_cast<size_t>(num_views_) +
-                    static_cast<size_t>(view)];
+  ViewSpectra(const ViewSpectra&) = delete;
+  ViewSpectra& operator=(const ViewSpectra&) = delete;
+  /// Not for temporaries: the spectra keep a reference to the database.
+  ViewSpectra(ViewDatabase&&, const CorrelationOptions& = {}) = delete;
+
+  const SignatureSpectrum& Get(int model, int view, int shell = 0) const {
+    return Block(model, shell)[static_cast<size_t>(view)];
   }
   /// False for a view whose silhouette could not be described when the database was built.
-  bool Usable(int model, int view) const {
-    return usable_[static_cast<size_t>(model) * static_cast<size_t>(num_views_) +
+  bool Usable(int model, int view, int shell = 0) const {
+    return usable_[Index(model, shell) * static_cast<size_t>(num_views_) +
                    static_cast<size_t>(view)] != 0;
   }
+  /// ViewDatabase::ChooseShell, from tables made once.
+  int ChooseShell(int model, int view, double apparent_radius) const;
   int num_models() const { return num_models_; }
   int num_views() const { return num_views_; }
+  int num_shells() const { return num_shells_; }
   int signature_length() const { return signature_length_; }
   const CorrelationOptions& options() const { return options_; }
+  const ViewDatabase& database() const { return database_; }
 
  private:
+  size_t Index(int model, int shell) const {
+    return static_cast<size_t>(model) * static_cast<size_t>(num_shells_) +
+           static_cast<size_t>(shell);
+  }
+  const std::vector<SignatureSpectrum>& Block(int model, int shell) const;
+
+  const ViewDatabase& database_;
   CorrelationOptions options_;
   int num_models_;
   int num_views_;
+  int num_shells_;
   int signature_length_;
-  std::vector<SignatureSpectrum> spectra_;
+  /// Per (model, shell): its views' spectra, made on first use.
+  mutable std::vector<std::vector<SignatureSpectrum>> blocks_;
+  std::unique_ptr<std::once_flag[]> once_;
   std::vector<uint8_t> usable_;
+  /// Per (model, shell, view): ViewDatabase::ApparentRadius.
+  std::vector<float> apparent_;
 };
 
 class ViewMatcher {
@@ -82,8 +112,8 @@ class ViewMatcher {
   /// Throws silpose::Error for a signature of another length or invalid options.
   std::vector<MatchCandidate> Match(std::span<const float> radii, const MatchOptions& options = {});
 
-  /// Correlation peak of a signature against one view.
-  CorrelationPeak Score(const SignatureSpectrum& query, int model, int view);
+  /// Correlation peak of a signature against one view (of shell `shell`).
+  CorrelationPeak Score(const SignatureSpectrum& query, int model, int view, int shell = 0);
 
   CircularCorrelator& correlator() { return correlator_; }
   const MatchStats& last_stats() const { return stats_; }
@@ -93,6 +123,7 @@ class ViewMatcher {
     float bound;
     int model;
     int view;
+    int shell;
     bool operator<(const BoundedView& other) const { return bound < other.bound; }
   };
 

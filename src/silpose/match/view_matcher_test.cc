@@ -51,6 +51,7 @@ SyntheticDatabase MakeDatabase(int num_models, int num_views, int length, uint32
   SyntheticDatabase result;
   ViewDatabase& database = result.database;
   database.parameters.signature.length = length;
+  database.parameters.distances_in_radii = {3.0};  // one shell of hand-made signatures
   database.parameters.view_sphere.num_views = num_views;
   database.parameters.view_sphere.num_bins = std::min(10, num_views);
   database.sphere = BuildViewSphere(database.parameters.view_sphere);

@@ -158,11 +158,16 @@ SilhouettePose EstimatePoseFromSilhouette(const ViewDatabase& database, int mode
   }
   if (!std::isfinite(roll_deg)) ThrowError("roll_deg must be finite, got ", roll_deg);
   const ModelViews& views = database.models[static_cast<size_t>(model)];
-  if (views.views.size() != static_cast<size_t>(database.num_views())) {
-    ThrowError("model '", views.name, "' has ", views.views.size(), " view records, expected ",
-               database.num_views());
+  if (options.shell < 0 || options.shell >= database.num_shells()) {
+    ThrowError("shell index ", options.shell, " out of range: the database has ",
+               database.num_shells(), " distance shells");
   }
-  const ViewRecord& record = views.views[static_cast<size_t>(view)];
+  if (views.views.size() !=
+      static_cast<size_t>(database.num_views()) * static_cast<size_t>(database.num_shells())) {
+    ThrowError("model '", views.name, "' has ", views.views.size(), " view records, expected ",
+               database.num_views(), " x ", database.num_shells(), " shells");
+  }
+  const ViewRecord& record = views.Record(view, options.shell);
   if (record.status != SignatureStatus::kOk || !(record.mean_radius_px > 0.0f)) {
     ThrowError("view ", view, " of model '", views.name, "' has no usable silhouette (",
                ToString(record.status), ")");
@@ -180,7 +185,7 @@ SilhouettePose EstimatePoseFromSilhouette(const ViewDatabase& database, int mode
   }
 
   // The database view, in normalised coordinates of its (square-pixel) camera.
-  const PinholeCamera db_camera = ViewCamera(database.parameters.render);
+  const PinholeCamera db_camera = ViewCamera(database.parameters.ShellRender(options.shell));
   const double db_focal = db_camera.focal_x_px;
   Problem problem;
   problem.camera = &camera;
@@ -190,7 +195,8 @@ SilhouettePose EstimatePoseFromSilhouette(const ViewDatabase& database, int mode
                                         record.centroid_y_px - db_camera.principal_y_px) /
                         db_focal;
   problem.db_mean_radius = record.mean_radius_px / db_focal;
-  problem.db_distance = database.parameters.render.distance_in_radii * views.radius;
+  problem.db_distance =
+      database.parameters.distances_in_radii[static_cast<size_t>(options.shell)] * views.radius;
   if (options.scale_model == ScaleModel::kSphere) {
     // a = rho / sqrt(D^2 - rho^2)  <=>  rho = D a / sqrt(1 + a^2).
     const double a = problem.db_mean_radius;
@@ -233,7 +239,7 @@ SilhouettePose EstimatePoseFromSilhouette(const ViewDatabase& database, int mode
   SilhouettePose result;
   if (options.outline_iterations > 0) {
     // The database outline: the star-convex polygon of the stored signature around c_db.
-    const std::span<const float> signature = views.Signature(view);
+    const std::span<const float> signature = views.Signature(view, options.shell);
     problem.signature_length = static_cast<int>(signature.size());
     problem.db_outline.resize(signature.size());
     for (size_t i = 0; i < signature.size(); ++i) {

@@ -47,12 +47,10 @@
 // centre's image is moved by the centroid residual and k divided by the radius ratio. Cost: one
 // pass over the M signature points per iteration.
 //
-// Not modelled: the change of the silhouette's shape with distance (perspective; the database is
-// rendered at D_db only) and the exact shape of the object between the database views; the
-// optional RefinePoseByRendering below removes the first. Nor is the match itself corrected: near
-// the image corners the frame silhouette is stretched (by 1 / cos^2(theta) radially), which makes
-// the matched view and roll less accurate there; warping the mask into the virtual camera before
-// describing it would remove that.
+// Not modelled: the change of the silhouette's shape between the database's distance shells and
+// the exact shape of the object between the database views; contour refinement
+// (pose/contour_refinement.h) removes both. The match itself is made in the on-axis virtual camera
+// (pose/on_axis.h), so off-axis stretch and lens distortion do not bias the view and roll.
 //
 // Non-square pixels: accepted when |fx / fy - 1| <= max_pixel_aspect_deviation (1 % by default),
 // with positions converted through fx and fy separately and scale through sqrt(fx fy); refused
@@ -82,6 +80,9 @@ enum class ScaleModel {
 
 struct PoseFromSilhouetteOptions {
   ScaleModel scale_model = ScaleModel::kSphere;
+  /// Distance shell of the database view to place (the one it was matched in: MatchCandidate or
+  /// FilterEstimate::shell); its distance is D_db. In [0, database shells).
+  int shell = 0;
   /// Outline iterations after the closed form (see above); 0 = closed form only. In [0, 100].
   int outline_iterations = 4;
   /// The iterations stop when the predicted centroid is within this many pixels of the frame's

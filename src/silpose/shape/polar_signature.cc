@@ -18,8 +18,9 @@ double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
-// Area centre of gravity of a closed polygon (shoelace formula); returns the signed area.
-double PolygonCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid) {
+}  // namespace
+
+double PolygonAreaCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid) {
   double twice_area = 0.0;
   Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
   const size_t n = polygon.size();
@@ -40,7 +41,6 @@ double PolygonCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d
   return 0.5 * twice_area;
 }
 
-}  // namespace
 
 std::string DescribeSilhouetteFlags(uint32_t flags) {
   static constexpr std::pair<uint32_t, const char*> kNames[] = {
@@ -177,7 +177,7 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
     polygon.reserve(contours[static_cast<size_t>(i)].size());
     for (const auto& p : contours[static_cast<size_t>(i)]) polygon.emplace_back(p.x, p.y);
     Eigen::Vector2d centroid;
-    const double enclosed = std::abs(PolygonCentroid(polygon, &centroid));
+    const double enclosed = std::abs(PolygonAreaCentroid(polygon, &centroid));
     outer.push_back(i);
     outer_enclosed.push_back(enclosed);
     // The contour runs through boundary pixel centres; the pixels' own outline encloses about half
@@ -249,7 +249,7 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
     result.flags |= kSilhouetteCentroidOutside;
   }
 
-  std::vector<Eigen::Vector2d> polygon;
+  std::vector<Eigen::Vector2d>& polygon = result.outline_px;
   polygon.reserve(contour.size());
   for (const auto& p : contour) polygon.emplace_back(p.x, p.y);
   signature.radii =

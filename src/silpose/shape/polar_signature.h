@@ -89,6 +89,10 @@ struct SignatureResult {
   double hole_area_px = 0.0;
   /// Valid when status == kOk.
   PolarSignature signature;
+  /// The chosen component's outer contour through its boundary pixels' centres (pixels, in
+  /// order), when ok(): what the on-axis description (pose/on_axis.h) and contour
+  /// refinement work from.
+  std::vector<Eigen::Vector2d> outline_px;
 
   bool ok() const { return status == SignatureStatus::kOk; }
   /// One line for people: status, flags, area.
@@ -98,6 +102,10 @@ struct SignatureResult {
 /// Computes the descriptor of a CV_8UC1 mask (non-zero = object). Throws silpose::Error for a mask
 /// of another type or invalid options; an empty or too small silhouette is a status, not an error.
 SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& options = {});
+
+/// Area centre of gravity of a closed polygon (shoelace formula); the vertex mean for a polygon
+/// without area. Returns the signed area (positive when counter-clockwise in a y-up frame).
+double PolygonAreaCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid);
 
 /// The star-convex radii of a closed polygon seen from `centre`: for each of `length` directions,
 /// the distance to the first crossing of the polygon's edges, 0 if the ray crosses none (counted in

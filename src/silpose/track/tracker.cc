@@ -2,6 +2,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <numbers>
+
+#include "silpose/geometry/view_frame.h"
 
 #include "silpose/util/error.h"
 
@@ -33,6 +36,10 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "pose: " + problem;
     return false;
   }
+  if (estimate_pose && refine && !refinement.Check(&problem)) {
+    if (error != nullptr) *error = "refinement: " + problem;
+    return false;
+  }
   return true;
 }
 
@@ -57,6 +64,40 @@ Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
 
 Tracker::~Tracker() = default;
 
+void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
+  FrameResult& result = tracked->result;
+  SilhouettePose& pose = *tracked->pose;
+  const FrameOutline outline(tracked->segmentation.mask);
+  ContourRefinementResult refined =
+      RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
+  // Keep the refinement only if it explains the outline better than the grid pose.
+  if (!(refined.final_rms_px <= refined.initial_rms_px) || refined.points_used < 6 ||
+      !refined.camera_from_object.rotation.allFinite() ||
+      !refined.camera_from_object.translation.allFinite()) {
+    tracked->refinement = std::move(refined);
+    tracked->refinement->camera_from_object = pose.camera_from_object;
+    return;
+  }
+  const Eigen::Vector3d centre(mesh.Centre());
+  const Eigen::Vector3d centre_in_camera =
+      refined.camera_from_object.rotation * centre + refined.camera_from_object.translation;
+  if (!(centre_in_camera.z() > 0.0)) return;
+  pose.camera_from_object = refined.camera_from_object;
+  pose.distance = centre_in_camera.norm();
+  pose.centre_ray = centre_in_camera / pose.distance;
+  pose.off_axis_deg = std::acos(std::min(1.0, pose.centre_ray.z())) * 180.0 / std::numbers::pi;
+  result.camera_from_object = pose.camera_from_object;
+  // The view and roll the refined pose means (of the on-axis camera, as the database's).
+  const Eigen::Matrix3d on_axis =
+      RotationFromOpticalAxisTo(pose.centre_ray).transpose() * pose.camera_from_object.rotation;
+  double roll_deg = 0.0;
+  Eigen::Vector3d view_dir;
+  ViewAndRollFromRotation(on_axis, &view_dir, &roll_deg);
+  result.view_dir_in_object = view_dir;
+  result.roll_deg = roll_deg;
+  tracked->refinement = std::move(refined);
+}
+
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
   if (frame.empty()) ThrowError("frame ", frame_, " is empty");
   if (frame.cols != camera_.width_px || frame.rows != camera_.height_px) {
@@ -80,11 +121,30 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     result.status = std::string("no-silhouette-") + ToString(tracked.segmentation.status);
   }
 
+  // What is matched: the silhouette seen straight on (no off-axis stretch, no distortion) and its
+  // apparent size, which picks each view's distance shell.
+  std::span<const float> radii;
+  double apparent_radius = 0.0;
+  if (usable) {
+    radii = tracked.silhouette.signature.radii;
+    apparent_radius = tracked.silhouette.signature.mean_radius_px /
+                      std::sqrt(camera_.focal_x_px * camera_.focal_y_px);
+    if (options_.on_axis_matching) {
+      OnAxisSilhouette on_axis;
+      if (DescribeOnAxis(tracked.silhouette.outline_px, camera_, database_.parameters.signature,
+                         &on_axis)) {
+        tracked.on_axis = std::move(on_axis);
+        radii = tracked.on_axis->signature.radii;
+        apparent_radius = tracked.on_axis->apparent_radius;
+      }
+    }
+  }
+
   int view = -1;
+  int shell = 0;
   bool roll_known = false;
   if (filter_) {
-    tracked.estimate =
-        usable ? filter_->Step(tracked.silhouette.signature.radii) : filter_->Predict();
+    tracked.estimate = usable ? filter_->Step(radii, apparent_radius) : filter_->Predict();
     const FilterEstimate& estimate = *tracked.estimate;
     result.particles = estimate.num_particles;
     result.effective_particles = estimate.effective_particles;
@@ -96,6 +156,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     const FilterEstimate& estimate = *tracked.estimate;
     result.object = estimate.object;
     view = estimate.view;
+    shell = estimate.shell;
     roll_known = estimate.roll_known;
     if (roll_known) result.roll_deg = estimate.roll_deg;
     result.score = static_cast<double>(estimate.score);
@@ -103,10 +164,11 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
   } else if (!filter_ && usable) {
     const std::vector<MatchCandidate> top =
-        matcher_->Match(tracked.silhouette.signature.radii, {.top_k = 1});
+        matcher_->Match(radii, {.top_k = 1, .apparent_radius = apparent_radius});
     if (!top.empty()) {
       result.object = top.front().model;
       view = top.front().view;
+      shell = top.front().shell;
       roll_known = true;
       result.roll_deg = top.front().roll_deg;
       result.score = static_cast<double>(top.front().score);
@@ -121,16 +183,27 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       result.status += "-cut-by-border-no-pose";
     } else if (options_.estimate_pose && usable && roll_known) {
       try {
+        PoseFromSilhouetteOptions pose_options = options_.pose;
+        pose_options.shell = shell;
         tracked.pose =
             EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
-                                       tracked.silhouette.signature, camera_, options_.pose);
+                                       tracked.silhouette.signature, camera_, pose_options);
         result.camera_from_object = tracked.pose->camera_from_object;
+        const TriangleMesh& mesh = database_.models[static_cast<size_t>(result.object)].mesh;
+        if (options_.refine && !mesh.triangles.empty()) Refine(mesh, &tracked);
       } catch (const Error&) {
         // A problem of this frame only (e.g. a centroid outside the lens model's valid range):
         // the frame keeps its object and view, without a pose.
         result.status += "-no-pose";
       }
     }
+  }
+  if (filter_ && tracked.refinement) {
+    // The refined orientation of the on-axis camera feeds the filter's velocity.
+    const Eigen::Matrix3d on_axis =
+        RotationFromOpticalAxisTo(tracked.pose->centre_ray).transpose() *
+        tracked.pose->camera_from_object.rotation;
+    filter_->ObserveRotation(on_axis);
   }
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

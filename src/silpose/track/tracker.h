@@ -26,6 +26,8 @@
 #include "silpose/filter/particle_filter.h"
 #include "silpose/geometry/pinhole_camera.h"
 #include "silpose/match/view_matcher.h"
+#include "silpose/pose/contour_refinement.h"
+#include "silpose/pose/on_axis.h"
 #include "silpose/pose/pose_from_silhouette.h"
 #include "silpose/pose/pose_output.h"
 #include "silpose/segment/segmenter.h"
@@ -52,9 +54,18 @@ struct TrackerOptions {
   /// The particle filter (filter/particle_filter.h). Tracker keeps at most
   /// filter.max_history_frames of history; the default here, 100, bounds memory on long videos.
   ParticleFilterOptions filter = DefaultFilterOptions();
+  /// Describe the silhouette in the on-axis virtual camera before matching (pose/on_axis.h):
+  /// removes the off-axis stretch and the lens distortion from the match. Off: the paper's
+  /// description of the raw mask.
+  bool on_axis_matching = true;
   /// Estimate the 6-DOF pose of every frame with a silhouette.
   bool estimate_pose = true;
   PoseFromSilhouetteOptions pose;
+  /// Refine the 6-DOF pose continuously against the frame's outline (pose/contour_refinement.h),
+  /// below the database's view grid; needs the models' geometry in the database. The refined
+  /// rotation also gives the reported view direction and roll, and the filter's velocity.
+  bool refine = true;
+  ContourRefinementOptions refinement;
 
   /// ParticleFilterOptions{} with max_history_frames = 100.
   static ParticleFilterOptions DefaultFilterOptions();
@@ -71,6 +82,11 @@ struct TrackedFrame {
   SegmentationResult segmentation;
   /// The silhouette description (valid when segmentation.ok()).
   SignatureResult silhouette;
+  /// The description that was matched, in the on-axis virtual camera (when on_axis_matching and
+  /// the silhouette was usable).
+  std::optional<OnAxisSilhouette> on_axis;
+  /// The contour refinement, when it ran.
+  std::optional<ContourRefinementResult> refinement;
   /// The pose and how it was found, when estimated.
   std::optional<SilhouettePose> pose;
   /// The particle filter's estimate (not set in brute-force mode).
@@ -89,6 +105,9 @@ class Tracker {
   Tracker(const Tracker&) = delete;
   Tracker& operator=(const Tracker&) = delete;
 
+  Tracker(ViewDatabase&&, const PinholeCamera&, const TrackerOptions&) = delete;
+  Tracker(ViewDatabase&&, const PinholeCamera&) = delete;
+
   /// Processes the next frame of the stream (CV_8UC1 mask or grey image, or CV_8UC3 BGR; see
   /// segment/segmenter.h). Throws silpose::Error if the frame is empty, of an unsupported type, or
   /// not of the camera's size.
@@ -101,6 +120,8 @@ class Tracker {
   const TrackerOptions& options() const { return options_; }
 
  private:
+  void Refine(const TriangleMesh& mesh, TrackedFrame* tracked);
+
   const ViewDatabase& database_;
   PinholeCamera camera_;
   TrackerOptions options_;
