@@ -77,6 +77,10 @@ bool ParticleFilterOptions::Check(std::string* error) const {
     message << "proposal views must be >= 1, got " << proposal_views;
   } else if (!(in(proposal_prior_floor, 0.0, 1.0) && proposal_prior_floor > 0.0)) {
     message << "proposal prior floor must be in (0, 1], got " << proposal_prior_floor;
+  } else if (!in(cut_min_score, -1.0, 1.0)) {
+    message << "cut minimum score must be in [-1, 1], got " << cut_min_score;
+  } else if (!in(cut_score_gap, 0.0, 2.0)) {
+    message << "cut score gap must be in [0, 2], got " << cut_score_gap;
   } else if (max_history_frames < 0) {
     message << "max history frames must be >= 0, got " << max_history_frames;
   } else {
@@ -273,6 +277,36 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   }
   if (options_.estimate_rule == EstimateRule::kMostProbableArea) {
     best = MostProbableAreaParticle(estimate);
+  }
+  if (frame != nullptr && options_.cut_score_gap > 0.0) {
+    // A cut: a particle (typically a proposal) matches the frame cleanly and far better than the
+    // chosen hypothesis. The likelihood floor would make the posterior need a frame or two to
+    // move there; the evidence is unequivocal, so the estimate and the weight move at once.
+    size_t top = 0;
+    for (size_t i = 1; i < particles_.size(); ++i) {
+      if (particles_[i].score > particles_[top].score) top = i;
+    }
+    const double top_score = particles_[top].score;
+    if (top_score >= options_.cut_min_score &&
+        top_score - particles_[best].score >= options_.cut_score_gap) {
+      const double total = 1.0;  // weights are normalised
+      if (particles_[top].weight < 0.5 * total) {
+        const double rest = total - particles_[top].weight;
+        const double scale = rest > 0.0 ? 0.5 * total / rest : 0.0;
+        for (size_t i = 0; i < particles_.size(); ++i) {
+          if (i != top) particles_[i].weight *= scale;
+        }
+        particles_[top].weight = 0.5 * total;
+        std::fill(estimate.object_probability.begin(), estimate.object_probability.end(), 0.0);
+        sum_squares = 0.0;
+        for (const Particle& p : particles_) {
+          estimate.object_probability[static_cast<size_t>(p.object)] += p.weight;
+          sum_squares += p.weight * p.weight;
+        }
+      }
+      best = top;
+      estimate.cut = true;
+    }
   }
   estimate.num_particles = static_cast<int>(particles_.size());
   estimate.effective_particles = sum_squares > 0.0 ? 1.0 / sum_squares : 0.0;

@@ -29,9 +29,9 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
       num_shells_(database.num_shells()),
       signature_length_(database.parameters.signature.length) {
   const size_t blocks = static_cast<size_t>(num_models_) * static_cast<size_t>(num_shells_);
-  blocks_.resize(blocks);
-  once_ = std::make_unique<std::once_flag[]>(blocks);
-  usable_.assign(blocks * static_cast<size_t>(num_views_), 0);
+  spectra_.resize(blocks * static_cast<size_t>(num_views_));
+  once_ = std::make_unique<std::once_flag[]>(spectra_.size());
+  usable_.assign(spectra_.size(), 0);
   apparent_.assign(usable_.size(), 0.0f);
   for (int m = 0; m < num_models_; ++m) {
     const ModelViews& model = database.models[static_cast<size_t>(m)];
@@ -60,20 +60,17 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
   }
 }
 
-const std::vector<SignatureSpectrum>& ViewSpectra::Block(int model, int shell) const {
-  const size_t block = Index(model, shell);
-  std::call_once(once_[block], [&] {
-    CircularCorrelator correlator(signature_length_, options_);
-    std::vector<SignatureSpectrum>& spectra = blocks_[block];
-    spectra.resize(static_cast<size_t>(num_views_));
-    const ModelViews& views = database_.models[static_cast<size_t>(model)];
-    for (int v = 0; v < num_views_; ++v) {
-      if (views.Record(v, shell).status == SignatureStatus::kOk) {
-        correlator.Transform(views.Signature(v, shell), &spectra[static_cast<size_t>(v)]);
-      }
-    }
-  });
-  return blocks_[block];
+void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
+  const ModelViews& views = database_.models[static_cast<size_t>(model)];
+  if (views.Record(view, shell).status != SignatureStatus::kOk) return;
+  // One correlator per thread: the FFT plan and scratch are reused across views.
+  thread_local std::unique_ptr<CircularCorrelator> correlator;
+  if (!correlator || correlator->length() != signature_length_ ||
+      correlator->options().smoothing_deg != options_.smoothing_deg ||
+      correlator->options().backend != options_.backend) {
+    correlator = std::make_unique<CircularCorrelator>(signature_length_, options_);
+  }
+  correlator->Transform(views.Signature(view, shell), &spectra_[index]);
 }
 
 int ViewSpectra::ChooseShell(int model, int view, double apparent_radius) const {

@@ -52,9 +52,9 @@ struct MatchStats {
   int views_correlated = 0;
 };
 
-/// Holds the spectra of every database view, in every distance shell. A shell's spectra are
-/// computed when a model's shell is first used (one FFT per view; thread-safe), so a sequence seen
-/// at one distance never pays for the others. Searching is read-only on it but uses per-object
+/// Holds the spectra of every database view, in every distance shell. A view's spectrum is
+/// computed when it is first used (one FFT; thread-safe), so a sequence seen at one distance never
+/// pays for the other shells, and a particle filter only for the views its particles visit. Searching is read-only on it but uses per-object
 /// scratch space, so use one ViewMatcher per thread (they can share one ViewSpectra). `database`
 /// must outlive it.
 class ViewSpectra {
@@ -66,7 +66,10 @@ class ViewSpectra {
   ViewSpectra(ViewDatabase&&, const CorrelationOptions& = {}) = delete;
 
   const SignatureSpectrum& Get(int model, int view, int shell = 0) const {
-    return Block(model, shell)[static_cast<size_t>(view)];
+    const size_t index =
+        Index(model, shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
+    std::call_once(once_[index], [&] { Compute(model, view, shell, index); });
+    return spectra_[index];
   }
   /// False for a view whose silhouette could not be described when the database was built.
   bool Usable(int model, int view, int shell = 0) const {
@@ -87,7 +90,7 @@ class ViewSpectra {
     return static_cast<size_t>(model) * static_cast<size_t>(num_shells_) +
            static_cast<size_t>(shell);
   }
-  const std::vector<SignatureSpectrum>& Block(int model, int shell) const;
+  void Compute(int model, int view, int shell, size_t index) const;
 
   const ViewDatabase& database_;
   CorrelationOptions options_;
@@ -95,8 +98,8 @@ class ViewSpectra {
   int num_views_;
   int num_shells_;
   int signature_length_;
-  /// Per (model, shell): its views' spectra, made on first use.
-  mutable std::vector<std::vector<SignatureSpectrum>> blocks_;
+  /// Per (model, shell, view): its spectrum, made on first use.
+  mutable std::vector<SignatureSpectrum> spectra_;
   std::unique_ptr<std::once_flag[]> once_;
   std::vector<uint8_t> usable_;
   /// Per (model, shell, view): ViewDatabase::ApparentRadius.
