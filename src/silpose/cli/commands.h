@@ -23,6 +23,8 @@ void AddCalibrateCommand(CLI::App& app);
 void AddEvalVideoCommand(CLI::App* eval);
 /// `silpose eval bop` (eval_bop_command.cc), added under `eval`.
 void AddEvalBopCommand(CLI::App* eval);
+/// `silpose eval handheld` (eval_handheld_command.cc), added under `eval`.
+void AddEvalHandheldCommand(CLI::App* eval);
 
 /// The models an evaluation uses by default: ../shared/models (the reference set) when run from a
 /// checkout beside it, else the sample models.

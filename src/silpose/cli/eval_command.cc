@@ -355,6 +355,7 @@ void AddEvalCommand(CLI::App& app) {
   AddTrackingCommand(eval);
   AddEvalVideoCommand(eval);
   AddEvalBopCommand(eval);
+  AddEvalHandheldCommand(eval);
 }
 
 }  // namespace silpose::cli

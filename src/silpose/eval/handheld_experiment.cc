@@ -1,0 +1,692 @@
+#include "silpose/eval/handheld_experiment.h"
+
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include "silpose/geometry/view_frame.h"
+#include "silpose/pose/pose_error.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/util/error.h"
+#include "silpose/util/threads.h"
+
+namespace silpose {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Orbit seeds start here (above any hand-held seed of a realistic run).
+constexpr uint64_t kOrbitSeedOffset = 500000;
+
+// Hand-held bin edges (upper ends, exclusive; the last bin is open).
+const std::vector<double> kDistanceEdges = {5.0, 6.5, 8.0};
+const std::vector<std::string> kDistanceLabels = {"4-5", "5-6.5", "6.5-8", "8-10"};
+const std::vector<double> kDistanceCentres = {4.5, 5.75, 7.25, 9.0};
+const std::vector<double> kOffAxisEdges = {5.0, 10.0, 15.0};
+const std::vector<std::string> kOffAxisLabels = {"0-5", "5-10", "10-15", "15-25"};
+const std::vector<double> kOffAxisCentres = {2.5, 7.5, 12.5, 20.0};
+const std::vector<double> kSpeedEdges = {2.0, 5.0, 10.0, 15.0};
+const std::vector<std::string> kSpeedLabels = {"0-2", "2-5", "5-10", "10-15", ">15"};
+const std::vector<double> kSpeedCentres = {1.0, 3.5, 7.5, 12.5, 17.5};
+
+int RangeBin(double value, const std::vector<double>& edges) {
+  int bin = 0;
+  while (bin < static_cast<int>(edges.size()) && !(value < edges[static_cast<size_t>(bin)])) ++bin;
+  return bin;
+}
+
+std::string ShortNumber(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+int OrbitIndex(double distance, const std::vector<double>& distances) {
+  for (size_t j = 0; j < distances.size(); ++j) {
+    if (std::abs(distances[j] - distance) < 1e-9) return static_cast<int>(j);
+  }
+  ThrowError("orbit distance ", distance, " is not among the experiment's orbit distances");
+}
+
+// One sequence to render and track: a model, a trajectory, a mask quality.
+struct Task {
+  int model = -1;
+  int model_order = 0;
+  HandheldSequenceKind kind = HandheldSequenceKind::kHandheld;
+  double orbit_distance = 0.0;
+  int sequence = 0;
+  uint64_t seed = 0;
+  MaskQuality quality = MaskQuality::kPerfect;
+};
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return kNaN;
+  return Percentile(values, 50.0);
+}
+
+double Mean(const std::vector<double>& values) {
+  if (values.empty()) return kNaN;
+  double sum = 0.0;
+  for (double v : values) sum += v;
+  return sum / static_cast<double>(values.size());
+}
+
+void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task& task,
+             const HandheldExperimentOptions& options, std::vector<HandheldRun>* runs) {
+  SequenceOptions sequence_options;
+  sequence_options.degradation.seed = task.seed;
+  sequence_options.degradation = WithMaskQuality(sequence_options.degradation, task.quality);
+  if (task.kind == HandheldSequenceKind::kHandheld) {
+    sequence_options.trajectory.kind = TrajectoryKind::kHandheld;
+    sequence_options.trajectory.num_frames = options.frames;
+    sequence_options.trajectory.handheld = options.handheld;
+    sequence_options.trajectory.handheld.seed = task.seed;
+  } else {
+    sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
+    sequence_options.trajectory.num_frames = options.orbit_frames;
+    sequence_options.trajectory.orbit.distance_in_radii = task.orbit_distance;
+  }
+  const SyntheticSequence sequence({mesh}, sequence_options);
+  const Eigen::Vector3d centre = mesh.Centre();
+
+  const size_t num_trackers = options.trackers.size();
+  std::vector<std::unique_ptr<Tracker>> trackers;
+  runs->resize(num_trackers);
+  for (size_t i = 0; i < num_trackers; ++i) {
+    trackers.push_back(std::make_unique<Tracker>(
+        database, sequence.camera(), HandheldTrackerOptions(options.trackers[i], task.seed)));
+    HandheldRun& run = (*runs)[i];
+    run.model = task.model;
+    run.model_name = database.models[static_cast<size_t>(task.model)].name;
+    run.kind = task.kind;
+    run.orbit_distance_radii = task.orbit_distance;
+    run.sequence = task.sequence;
+    run.seed = task.seed;
+    run.mask_quality = task.quality;
+    run.tracker = options.trackers[i];
+    run.frames.resize(static_cast<size_t>(sequence.num_frames()));
+  }
+
+  SyntheticFrame frame;
+  Eigen::Matrix3d previous_rotation = Eigen::Matrix3d::Identity();
+  for (int k = 0; k < sequence.num_frames(); ++k) {
+    sequence.Generate(k, &frame);
+    const TrajectoryFrame& path = sequence.trajectory()[static_cast<size_t>(k)];
+    const Rigid3& truth = frame.truth.camera_from_object;
+    const double true_distance = (truth.rotation * centre + truth.translation).norm();
+    const double speed = k == 0 ? 0.0 : RotationErrorDeg(previous_rotation, truth.rotation);
+    previous_rotation = truth.rotation;
+    const double off_axis =
+        std::acos(std::clamp(path.centre_ray_in_camera.normalized().z(), -1.0, 1.0)) * 180.0 /
+        std::numbers::pi;
+    for (size_t i = 0; i < num_trackers; ++i) {
+      const TrackedFrame tracked = trackers[i]->Process(frame.mask);
+      const FrameResult& result = tracked.result;
+      HandheldFrame& f = (*runs)[i].frames[static_cast<size_t>(k)];
+      f.frame = k;
+      f.distance_radii = path.distance_in_radii;
+      f.off_axis_deg = off_axis;
+      f.speed_deg_per_frame = speed;
+      f.cut = path.cut;
+      f.time_ms = result.time_ms;
+      f.object = result.object;
+      f.right_object = result.object == task.model;
+      f.rotation_error_deg = f.translation_error_percent = f.view_error = f.roll_error_deg = kNaN;
+      if (result.view_dir_in_object) {
+        f.has_view = true;
+        f.view_error = ViewDirectionError(*result.view_dir_in_object, path.view_dir_in_object);
+        if (f.right_object && std::isfinite(result.roll_deg)) {
+          const double carried =
+              TransportRoll(*result.view_dir_in_object, result.roll_deg, path.view_dir_in_object);
+          f.roll_error_deg = std::abs(WrapDegrees(carried - path.roll_deg));
+        }
+      }
+      if (f.right_object && result.camera_from_object) {
+        f.has_pose = true;
+        f.rotation_error_deg = RotationErrorDeg(result.camera_from_object->rotation, truth.rotation);
+        f.translation_error_percent =
+            100.0 * (result.camera_from_object->translation - truth.translation).norm() /
+            true_distance;
+      }
+    }
+  }
+}
+
+template <typename Predicate>
+std::vector<const HandheldFrame*> SelectFrames(const std::vector<HandheldRun>& runs,
+                                               int skip_frames, Predicate keep) {
+  std::vector<const HandheldFrame*> frames;
+  for (const HandheldRun& run : runs) {
+    for (const HandheldFrame& f : run.frames) {
+      if (f.frame >= skip_frames && keep(run, f)) frames.push_back(&f);
+    }
+  }
+  return frames;
+}
+
+std::ofstream OpenCsv(const std::filesystem::path& path) {
+  std::ofstream file(path);
+  if (!file) ThrowError(path.string(), ": cannot open for writing");
+  file.precision(7);
+  return file;
+}
+
+void CloseCsv(std::ofstream& file, const std::filesystem::path& path) {
+  file.close();
+  if (!file) ThrowError(path.string(), ": write failed");
+}
+
+// A number, or an empty cell for NaN.
+std::string Cell(double value) {
+  if (!std::isfinite(value)) return "";
+  std::ostringstream text;
+  text.precision(7);
+  text << value;
+  return text.str();
+}
+
+}  // namespace
+
+const char* HandheldTrackerName(HandheldTracker tracker) {
+  switch (tracker) {
+    case HandheldTracker::kFilter:
+      return "filter";
+    case HandheldTracker::kBruteForce:
+      return "brute-force";
+    case HandheldTracker::kFilterNoRefine:
+      return "filter-no-refine";
+    case HandheldTracker::kFilterPaperMotion:
+      return "filter-paper-motion";
+  }
+  return "?";
+}
+
+TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed) {
+  TrackerOptions options;
+  options.filter.seed = seed;
+  switch (tracker) {
+    case HandheldTracker::kFilter:
+      break;
+    case HandheldTracker::kBruteForce:
+      options.brute_force = true;
+      break;
+    case HandheldTracker::kFilterNoRefine:
+      options.refine = false;
+      break;
+    case HandheldTracker::kFilterPaperMotion:
+      options.filter.motion_model = MotionModel::kNeighbour;
+      options.filter.data_driven_proposal = false;
+      break;
+  }
+  return options;
+}
+
+bool HandheldExperimentOptions::Check(std::string* error) const {
+  auto fail = [error](const std::string& message) {
+    if (error != nullptr) *error = message;
+    return false;
+  };
+  if (sequences_per_model < 0) return fail("hand-held sequences per model must be >= 0");
+  if (frames < 1 || frames > 1000000) return fail("frames must be in [1, 1000000]");
+  if (orbit_frames < 1 || orbit_frames > 1000000)
+    return fail("orbit frames must be in [1, 1000000]");
+  if (sequences_per_model == 0 && orbit_distances_radii.empty())
+    return fail("nothing to run: no hand-held sequences and no orbit distances");
+  for (double d : orbit_distances_radii) {
+    if (!(d > 1.0 && d <= 1000.0)) return fail("orbit distances must be in (1, 1000] radii");
+  }
+  if (std::set<double>(orbit_distances_radii.begin(), orbit_distances_radii.end()).size() !=
+      orbit_distances_radii.size())
+    return fail("orbit distances must not repeat");
+  if (mask_qualities.empty()) return fail("at least one mask quality is needed");
+  if (std::set<MaskQuality>(mask_qualities.begin(), mask_qualities.end()).size() !=
+      mask_qualities.size())
+    return fail("mask qualities must not repeat");
+  if (trackers.empty()) return fail("at least one tracker is needed");
+  if (std::set<HandheldTracker>(trackers.begin(), trackers.end()).size() != trackers.size())
+    return fail("trackers must not repeat");
+  if (skip_frames < 0) return fail("skip_frames must be >= 0");
+  if (num_threads < 0) return fail("thread count must be >= 0");
+  std::string problem;
+  HandheldOptions probe = handheld;
+  if (!probe.Check(&problem)) return fail("hand-held motion: " + problem);
+  return true;
+}
+
+std::string HandheldRun::KindLabel() const {
+  if (kind == HandheldSequenceKind::kHandheld) return "handheld";
+  return "orbit-" + ShortNumber(orbit_distance_radii);
+}
+
+HandheldStats ComputeHandheldStats(const std::vector<const HandheldFrame*>& frames) {
+  HandheldStats stats;
+  std::vector<double> rotation, translation, view, roll;
+  for (const HandheldFrame* f : frames) {
+    ++stats.frames;
+    stats.right_object += f->right_object;
+    stats.no_estimate += f->object < 0;
+    stats.no_pose += f->right_object && !f->has_pose;
+    if (f->has_pose) {
+      rotation.push_back(f->rotation_error_deg);
+      translation.push_back(f->translation_error_percent);
+    }
+    if (f->has_view) view.push_back(f->view_error);
+    if (std::isfinite(f->roll_error_deg)) roll.push_back(f->roll_error_deg);
+  }
+  stats.rotation_median_deg = Median(rotation);
+  stats.rotation_mean_deg = Mean(rotation);
+  stats.rotation_p90_deg = rotation.empty() ? kNaN : Percentile(rotation, 90.0);
+  stats.translation_median_percent = Median(translation);
+  stats.view_error_mean = Mean(view);
+  stats.roll_median_deg = Median(roll);
+  return stats;
+}
+
+const char* HandheldBinAxisName(HandheldBinAxis axis) {
+  switch (axis) {
+    case HandheldBinAxis::kDistance:
+      return "distance";
+    case HandheldBinAxis::kOffAxis:
+      return "off_axis";
+    case HandheldBinAxis::kSpeed:
+      return "speed";
+    case HandheldBinAxis::kMaskQuality:
+      return "mask_quality";
+  }
+  return "?";
+}
+
+const std::vector<HandheldBinAxis>& AllHandheldBinAxes() {
+  static const std::vector<HandheldBinAxis> axes = {
+      HandheldBinAxis::kDistance, HandheldBinAxis::kOffAxis, HandheldBinAxis::kSpeed,
+      HandheldBinAxis::kMaskQuality};
+  return axes;
+}
+
+std::vector<std::string> HandheldBinLabels(HandheldBinAxis axis,
+                                           const std::vector<double>& orbit_distances_radii) {
+  std::vector<std::string> labels;
+  switch (axis) {
+    case HandheldBinAxis::kDistance:
+      labels = kDistanceLabels;
+      for (double d : orbit_distances_radii) labels.push_back("orbit " + ShortNumber(d));
+      break;
+    case HandheldBinAxis::kOffAxis:
+      labels = kOffAxisLabels;
+      labels.push_back("orbit");
+      break;
+    case HandheldBinAxis::kSpeed:
+      labels = kSpeedLabels;
+      labels.push_back("orbit");
+      break;
+    case HandheldBinAxis::kMaskQuality:
+      labels = {MaskQualityName(MaskQuality::kPerfect), MaskQualityName(MaskQuality::kThreshold)};
+      break;
+  }
+  return labels;
+}
+
+std::vector<double> HandheldBinCentres(HandheldBinAxis axis,
+                                       const std::vector<double>& orbit_distances_radii) {
+  std::vector<double> centres;
+  switch (axis) {
+    case HandheldBinAxis::kDistance:
+      centres = kDistanceCentres;
+      for (double d : orbit_distances_radii) centres.push_back(d);
+      break;
+    case HandheldBinAxis::kOffAxis:
+      centres = kOffAxisCentres;
+      centres.push_back(kNaN);
+      break;
+    case HandheldBinAxis::kSpeed:
+      centres = kSpeedCentres;
+      centres.push_back(kNaN);
+      break;
+    case HandheldBinAxis::kMaskQuality:
+      centres = {kNaN, kNaN};
+      break;
+  }
+  return centres;
+}
+
+int HandheldBinIndex(HandheldBinAxis axis, const HandheldRun& run, const HandheldFrame& frame,
+                     const std::vector<double>& orbit_distances_radii) {
+  const bool orbit = run.kind == HandheldSequenceKind::kOrbit;
+  switch (axis) {
+    case HandheldBinAxis::kDistance:
+      if (orbit) {
+        return static_cast<int>(kDistanceLabels.size()) +
+               OrbitIndex(run.orbit_distance_radii, orbit_distances_radii);
+      }
+      return RangeBin(frame.distance_radii, kDistanceEdges);
+    case HandheldBinAxis::kOffAxis:
+      return orbit ? static_cast<int>(kOffAxisLabels.size())
+                   : RangeBin(frame.off_axis_deg, kOffAxisEdges);
+    case HandheldBinAxis::kSpeed:
+      return orbit ? static_cast<int>(kSpeedLabels.size())
+                   : RangeBin(frame.speed_deg_per_frame, kSpeedEdges);
+    case HandheldBinAxis::kMaskQuality:
+      return run.mask_quality == MaskQuality::kPerfect ? 0 : 1;
+  }
+  return 0;
+}
+
+const HandheldSummaryRow* HandheldExperimentResult::Summary(const std::string& kind,
+                                                            MaskQuality quality,
+                                                            HandheldTracker tracker) const {
+  for (const HandheldSummaryRow& row : summary) {
+    if (row.kind == kind && row.mask_quality == quality && row.tracker == tracker) return &row;
+  }
+  return nullptr;
+}
+
+const HandheldBinRow* HandheldExperimentResult::Bin(HandheldBinAxis axis, int bin,
+                                                    const std::string& mask_quality,
+                                                    HandheldTracker tracker) const {
+  for (const HandheldBinRow& row : bins) {
+    if (row.axis == axis && row.bin == bin && row.mask_quality == mask_quality &&
+        row.tracker == tracker)
+      return &row;
+  }
+  return nullptr;
+}
+
+std::vector<uint64_t> HandheldExperimentResult::Seeds() const {
+  std::set<uint64_t> seeds;
+  for (const HandheldRun& run : runs) seeds.insert(run.seed);
+  return {seeds.begin(), seeds.end()};
+}
+
+int HandheldTaskCount(const HandheldExperimentOptions& options, int num_models) {
+  return num_models *
+         (options.sequences_per_model + static_cast<int>(options.orbit_distances_radii.size())) *
+         static_cast<int>(options.mask_qualities.size());
+}
+
+HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
+                                               const std::vector<TriangleMesh>& meshes,
+                                               const HandheldExperimentOptions& options,
+                                               const std::function<void(int)>& on_progress) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError("invalid hand-held experiment options: ", error);
+  if (meshes.size() != database.models.size()) {
+    ThrowError("the hand-held experiment needs one mesh per database model (",
+               database.models.size(), "), got ", meshes.size());
+  }
+  for (size_t m = 0; m < meshes.size(); ++m) {
+    if (meshes[m].name != database.models[m].name) {
+      ThrowError("mesh '", meshes[m].name, "' does not match database model '",
+                 database.models[m].name, "'");
+    }
+  }
+  std::vector<int> models;
+  if (options.models.empty()) {
+    for (int m = 0; m < static_cast<int>(database.models.size()); ++m) models.push_back(m);
+  } else {
+    for (const std::string& name : options.models) {
+      const int index = database.FindModel(name);
+      if (index < 0) ThrowError("model to evaluate '", name, "' is not in the database");
+      if (std::find(models.begin(), models.end(), index) != models.end())
+        ThrowError("model to evaluate '", name, "' is named twice");
+      models.push_back(index);
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+
+  std::vector<Task> tasks;
+  const int num_orbits = static_cast<int>(options.orbit_distances_radii.size());
+  for (size_t i = 0; i < models.size(); ++i) {
+    const uint64_t order = i;
+    for (int k = 0; k < options.sequences_per_model; ++k) {
+      for (MaskQuality quality : options.mask_qualities) {
+        tasks.push_back({.model = models[i],
+                         .model_order = static_cast<int>(i),
+                         .kind = HandheldSequenceKind::kHandheld,
+                         .sequence = k,
+                         .seed = options.first_seed +
+                                 order * static_cast<uint64_t>(options.sequences_per_model) +
+                                 static_cast<uint64_t>(k),
+                         .quality = quality});
+      }
+    }
+    for (int j = 0; j < num_orbits; ++j) {
+      for (MaskQuality quality : options.mask_qualities) {
+        tasks.push_back({.model = models[i],
+                         .model_order = static_cast<int>(i),
+                         .kind = HandheldSequenceKind::kOrbit,
+                         .orbit_distance = options.orbit_distances_radii[static_cast<size_t>(j)],
+                         .sequence = j,
+                         .seed = options.first_seed + kOrbitSeedOffset +
+                                 order * static_cast<uint64_t>(num_orbits) +
+                                 static_cast<uint64_t>(j),
+                         .quality = quality});
+      }
+    }
+  }
+
+  std::vector<std::vector<HandheldRun>> task_runs(tasks.size());
+  const int num_threads = WorkerThreads(options.num_threads);
+  auto run_task = [&](size_t t) {
+    RunTask(database, meshes[static_cast<size_t>(tasks[t].model)], tasks[t], options,
+            &task_runs[t]);
+    if (on_progress) on_progress(1);
+  };
+  if (num_threads == 1) {
+    for (size_t t = 0; t < tasks.size(); ++t) run_task(t);
+  } else {
+    tbb::task_arena arena(num_threads);
+    arena.execute(
+        [&] { tbb::parallel_for(size_t{0}, tasks.size(), run_task, tbb::simple_partitioner()); });
+  }
+
+  HandheldExperimentResult result;
+  result.options = options;
+  result.database_models = static_cast<int>(database.models.size());
+  for (int m : models) result.models.push_back(database.models[static_cast<size_t>(m)].name);
+  for (std::vector<HandheldRun>& runs : task_runs) {
+    for (HandheldRun& run : runs) result.runs.push_back(std::move(run));
+  }
+
+  // Summary: kinds x qualities x trackers.
+  std::vector<std::string> kinds;
+  if (options.sequences_per_model > 0) kinds.push_back("handheld");
+  for (double d : options.orbit_distances_radii) kinds.push_back("orbit-" + ShortNumber(d));
+  for (const std::string& kind : kinds) {
+    for (MaskQuality quality : options.mask_qualities) {
+      for (HandheldTracker tracker : options.trackers) {
+        HandheldSummaryRow row;
+        row.kind = kind;
+        row.mask_quality = quality;
+        row.tracker = tracker;
+        auto keep = [&](const HandheldRun& run, const HandheldFrame&) {
+          return run.KindLabel() == kind && run.mask_quality == quality && run.tracker == tracker;
+        };
+        for (const HandheldRun& run : result.runs) row.sequences += keep(run, run.frames.front());
+        row.counted = ComputeHandheldStats(SelectFrames(result.runs, options.skip_frames, keep));
+        row.all = ComputeHandheldStats(SelectFrames(result.runs, 0, keep));
+        result.summary.push_back(row);
+      }
+    }
+  }
+
+  // Bins: axes x bins x (all, qualities) x trackers.
+  std::vector<std::string> quality_names = {"all"};
+  for (MaskQuality quality : options.mask_qualities)
+    quality_names.push_back(MaskQualityName(quality));
+  for (HandheldBinAxis axis : AllHandheldBinAxes()) {
+    const std::vector<std::string> labels =
+        HandheldBinLabels(axis, options.orbit_distances_radii);
+    // Each frame's bin, computed once per axis.
+    std::vector<std::vector<const HandheldFrame*>> by_bin(labels.size() * quality_names.size() *
+                                                          options.trackers.size());
+    auto slot = [&](int bin, size_t quality, size_t tracker) {
+      return (static_cast<size_t>(bin) * quality_names.size() + quality) *
+                 options.trackers.size() +
+             tracker;
+    };
+    for (const HandheldRun& run : result.runs) {
+      const size_t tracker = static_cast<size_t>(
+          std::find(options.trackers.begin(), options.trackers.end(), run.tracker) -
+          options.trackers.begin());
+      const size_t quality = static_cast<size_t>(
+          std::find(quality_names.begin(), quality_names.end(),
+                    MaskQualityName(run.mask_quality)) -
+          quality_names.begin());
+      for (const HandheldFrame& f : run.frames) {
+        if (f.frame < options.skip_frames) continue;
+        const int bin = HandheldBinIndex(axis, run, f, options.orbit_distances_radii);
+        by_bin[slot(bin, 0, tracker)].push_back(&f);
+        by_bin[slot(bin, quality, tracker)].push_back(&f);
+      }
+    }
+    for (size_t bin = 0; bin < labels.size(); ++bin) {
+      for (size_t q = 0; q < quality_names.size(); ++q) {
+        for (size_t t = 0; t < options.trackers.size(); ++t) {
+          HandheldBinRow row;
+          row.axis = axis;
+          row.bin = static_cast<int>(bin);
+          row.label = labels[bin];
+          row.mask_quality = quality_names[q];
+          row.tracker = options.trackers[t];
+          row.stats = ComputeHandheldStats(by_bin[slot(static_cast<int>(bin), q, t)]);
+          result.bins.push_back(row);
+        }
+      }
+    }
+  }
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+const char* HandheldSummaryHeader() {
+  return "kind,mask_quality,tracker,sequences,frames,right_object_percent,no_estimate_frames,"
+         "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
+         "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
+         "all_right_object_percent,all_rotation_median_deg";
+}
+
+const char* HandheldFramesHeader() {
+  return "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
+         "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
+         "translation_error_percent,view_error,roll_error_deg,time_ms";
+}
+
+const char* HandheldBinsHeader() {
+  return "axis,bin,mask_quality,tracker,frames,right_object_percent,rotation_median_deg,"
+         "rotation_mean_deg,translation_median_percent";
+}
+
+void WriteHandheldSummary(const std::filesystem::path& path,
+                          const HandheldExperimentResult& result) {
+  std::ofstream csv = OpenCsv(path);
+  csv << HandheldSummaryHeader() << '\n';
+  for (const HandheldSummaryRow& row : result.summary) {
+    const HandheldStats& s = row.counted;
+    csv << row.kind << ',' << MaskQualityName(row.mask_quality) << ','
+        << HandheldTrackerName(row.tracker) << ',' << row.sequences << ',' << s.frames << ','
+        << Cell(s.RightObjectPercent()) << ',' << s.no_estimate << ',' << s.no_pose << ','
+        << Cell(s.rotation_median_deg) << ',' << Cell(s.rotation_mean_deg) << ','
+        << Cell(s.rotation_p90_deg) << ',' << Cell(s.translation_median_percent) << ','
+        << Cell(s.view_error_mean) << ',' << Cell(s.roll_median_deg) << ',' << row.all.frames << ','
+        << Cell(row.all.RightObjectPercent()) << ',' << Cell(row.all.rotation_median_deg) << '\n';
+  }
+  CloseCsv(csv, path);
+}
+
+void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperimentResult& result,
+                         const ViewDatabase& database) {
+  std::ofstream csv = OpenCsv(path);
+  csv << HandheldFramesHeader() << '\n';
+  for (const HandheldRun& run : result.runs) {
+    const std::string prefix = run.model_name + ',' + run.KindLabel() + ',' +
+                               std::to_string(run.sequence) + ',' + std::to_string(run.seed) +
+                               ',' + MaskQualityName(run.mask_quality) + ',' +
+                               HandheldTrackerName(run.tracker) + ',';
+    for (const HandheldFrame& f : run.frames) {
+      csv << prefix << f.frame << ',' << Cell(f.distance_radii) << ',' << Cell(f.off_axis_deg)
+          << ',' << Cell(f.speed_deg_per_frame) << ',' << (f.cut ? 1 : 0) << ','
+          << (f.object >= 0 ? database.models[static_cast<size_t>(f.object)].name : "") << ','
+          << (f.right_object ? 1 : 0) << ',' << (f.has_pose ? 1 : 0) << ','
+          << Cell(f.rotation_error_deg) << ',' << Cell(f.translation_error_percent) << ','
+          << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms)
+          << '\n';
+    }
+  }
+  CloseCsv(csv, path);
+}
+
+void WriteHandheldBins(const std::filesystem::path& path, const HandheldExperimentResult& result) {
+  std::ofstream csv = OpenCsv(path);
+  csv << HandheldBinsHeader() << '\n';
+  for (const HandheldBinRow& row : result.bins) {
+    const HandheldStats& s = row.stats;
+    csv << HandheldBinAxisName(row.axis) << ',' << row.label << ',' << row.mask_quality << ','
+        << HandheldTrackerName(row.tracker) << ',' << s.frames << ','
+        << (s.frames > 0 ? Cell(s.RightObjectPercent()) : "") << ','
+        << Cell(s.rotation_median_deg) << ',' << Cell(s.rotation_mean_deg) << ','
+        << Cell(s.translation_median_percent) << '\n';
+  }
+  CloseCsv(csv, path);
+}
+
+Figure HandheldFigure(const HandheldExperimentResult& result) {
+  const HandheldExperimentOptions& options = result.options;
+  auto panel_for = [&](HandheldBinAxis axis, const std::string& title, const std::string& x_label) {
+    PlotPanel panel;
+    panel.title = title;
+    panel.x_axis.label = x_label;
+    panel.y_axis.label = "median rotation error (deg)";
+    panel.y_axis.min = 0.0;
+    const std::vector<double> centres = HandheldBinCentres(axis, options.orbit_distances_radii);
+    const size_t num_range_bins = axis == HandheldBinAxis::kDistance ? kDistanceLabels.size()
+                                                                     : centres.size();
+    int colour = 0;
+    for (HandheldTracker tracker : options.trackers) {
+      for (MaskQuality quality : options.mask_qualities) {
+        PlotSeries range, orbits;
+        const std::string label =
+            std::string(HandheldTrackerName(tracker)) + ", " + MaskQualityName(quality);
+        range.label = label;
+        range.colour = orbits.colour = PaletteColour(colour++);
+        range.marker = Marker::kCircle;
+        orbits.line = false;
+        orbits.marker = Marker::kSquare;
+        orbits.marker_radius_px = 4.0;
+        if (quality == MaskQuality::kThreshold) range.marker = Marker::kCross;
+        for (size_t bin = 0; bin < centres.size(); ++bin) {
+          if (!std::isfinite(centres[bin])) continue;
+          const HandheldBinRow* row =
+              result.Bin(axis, static_cast<int>(bin), MaskQualityName(quality), tracker);
+          if (row == nullptr || !std::isfinite(row->stats.rotation_median_deg)) continue;
+          PlotSeries& series = bin < num_range_bins ? range : orbits;
+          series.x.push_back(centres[bin]);
+          series.y.push_back(row->stats.rotation_median_deg);
+        }
+        if (!range.x.empty()) panel.series.push_back(range);
+        if (!orbits.x.empty()) panel.series.push_back(orbits);
+      }
+    }
+    return panel;
+  };
+  Figure figure;
+  figure.width_px = 1200;
+  figure.height_px = 460;
+  figure.panels = {
+      panel_for(HandheldBinAxis::kSpeed, "Rotation error by speed (hand-held)",
+                "true rotation speed (deg/frame, bin centre)"),
+      panel_for(HandheldBinAxis::kDistance,
+                "Rotation error by distance (hand-held; squares: orbits)",
+                "distance (object radii, bin centre)")};
+  return figure;
+}
+
+}  // namespace silpose

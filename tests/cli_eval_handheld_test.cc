@@ -1,0 +1,150 @@
+// `silpose eval handheld`: the hand-held accuracy experiment as a user runs it, in its --quick form.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_runner.h"
+
+namespace silpose {
+namespace {
+
+std::vector<std::string> ReadLines(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(file, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> Cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream stream(line);
+  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+class CliEvalHandheldTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    directory_ = std::filesystem::temp_directory_path() /
+                 ("silpose_cli_eval_handheld_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(directory_);
+    out_ = (directory_ / "quick").string();
+    quick_ = new CommandResult(Silpose("eval handheld --quick --threads 2 -o " + out_));
+  }
+  static void TearDownTestSuite() {
+    delete quick_;
+    std::filesystem::remove_all(directory_);
+  }
+
+  static inline std::filesystem::path directory_;
+  static inline std::string out_;
+  static inline CommandResult* quick_ = nullptr;
+};
+
+TEST_F(CliEvalHandheldTest, QuickRunWritesTheDocumentedSummary) {
+  ASSERT_EQ(quick_->exit_code, 0) << quick_->err;
+  EXPECT_EQ(quick_->err, "");  // no terminal: no progress bar
+  const std::vector<std::string> summary = ReadLines(out_ + "/summary.csv");
+  ASSERT_FALSE(summary.empty());
+  EXPECT_EQ(summary[0],
+            "kind,mask_quality,tracker,sequences,frames,right_object_percent,no_estimate_frames,"
+            "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
+            "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
+            "all_right_object_percent,all_rotation_median_deg");
+  // handheld, orbit-3, orbit-7, orbit-15 x perfect, threshold x filter, brute-force.
+  ASSERT_EQ(summary.size(), 1u + 4u * 2u * 2u);
+  std::set<std::string> kinds;
+  for (size_t i = 1; i < summary.size(); ++i) {
+    const std::vector<std::string> cells = Cells(summary[i]);
+    ASSERT_EQ(cells.size(), 17u) << summary[i];
+    kinds.insert(cells[0]);
+    // Two models (bunny, hand), one sequence each: 40 - 10 hand-held frames, 30 - 10 per orbit.
+    EXPECT_EQ(cells[3], "2");
+    EXPECT_EQ(cells[4], cells[0] == "handheld" ? "60" : "40") << summary[i];
+    if (cells[2] == "filter" && cells[1] == "perfect") {
+      EXPECT_GE(std::stod(cells[5]), 90.0) << summary[i];
+    }
+  }
+  EXPECT_EQ(kinds, (std::set<std::string>{"handheld", "orbit-3", "orbit-7", "orbit-15"}));
+  // The table on screen and the note on what the errors cover.
+  EXPECT_NE(quick_->out.find("summary"), std::string::npos);
+  EXPECT_NE(quick_->out.find("by speed"), std::string::npos);
+}
+
+TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {
+  ASSERT_EQ(quick_->exit_code, 0) << quick_->err;
+  const std::vector<std::string> frames = ReadLines(out_ + "/frames.csv");
+  ASSERT_FALSE(frames.empty());
+  EXPECT_EQ(frames[0],
+            "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
+            "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
+            "translation_error_percent,view_error,roll_error_deg,time_ms");
+  // 2 models x (40 + 3 x 30 frames) x 2 mask qualities x 2 trackers.
+  EXPECT_EQ(frames.size(), 1u + 2u * 130u * 2u * 2u);
+  std::set<std::string> seeds;
+  for (size_t i = 1; i < frames.size(); ++i) {
+    const std::vector<std::string> cells = Cells(frames[i]);
+    ASSERT_EQ(cells.size(), 19u) << frames[i];
+    seeds.insert(cells[3]);
+  }
+  // Two hand-held sequences and six orbits, each with its own seed.
+  EXPECT_EQ(seeds.size(), 8u);
+
+  const std::vector<std::string> bins = ReadLines(out_ + "/bins.csv");
+  ASSERT_FALSE(bins.empty());
+  EXPECT_EQ(bins[0],
+            "axis,bin,mask_quality,tracker,frames,right_object_percent,rotation_median_deg,"
+            "rotation_mean_deg,translation_median_percent");
+  std::set<std::string> axes, speed_bins;
+  for (size_t i = 1; i < bins.size(); ++i) {
+    const std::vector<std::string> cells = Cells(bins[i]);
+    ASSERT_EQ(cells.size(), 9u) << bins[i];
+    axes.insert(cells[0]);
+    if (cells[0] == "speed") speed_bins.insert(cells[1]);
+  }
+  EXPECT_EQ(axes, (std::set<std::string>{"distance", "off_axis", "speed", "mask_quality"}));
+  EXPECT_EQ(speed_bins, (std::set<std::string>{"0-2", "2-5", "5-10", "10-15", ">15", "orbit"}));
+
+  const std::string svg = ReadText(out_ + "/handheld.svg");
+  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+  EXPECT_NE(svg.find("brute-force"), std::string::npos);
+  EXPECT_GT(std::filesystem::file_size(out_ + "/handheld.png"), 1000u);
+  // README.txt: the command line and every seed, to reproduce the figures.
+  const std::string readme = ReadText(out_ + "/README.txt");
+  EXPECT_NE(readme.find("eval handheld --quick --threads 2 -o " + out_), std::string::npos);
+  for (const std::string& seed : seeds) EXPECT_NE(readme.find(" " + seed), std::string::npos);
+}
+
+TEST_F(CliEvalHandheldTest, BadOptionsGiveOneErrorLine) {
+  for (const std::string& bad :
+       {std::string("--mask-quality shiny"), std::string("--distances 3,far"),
+        std::string("--frames 0"), std::string("--evaluate teapot"),
+        std::string("--models /nonexistent/models")}) {
+    const CommandResult run =
+        Silpose("eval handheld --quick " + bad + " -o " + (directory_ / "bad").string());
+    EXPECT_NE(run.exit_code, 0) << bad;
+    EXPECT_EQ(Lines(run.err), 1) << bad << ": " << run.err;
+    EXPECT_NE(run.err.find("error"), std::string::npos) << run.err;
+  }
+  const CommandResult unknown = Silpose("eval handheld --bogus-option");
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_EQ(Lines(unknown.err), 1) << unknown.err;
+}
+
+}  // namespace
+}  // namespace silpose
