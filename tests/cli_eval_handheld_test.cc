@@ -1,4 +1,5 @@
-// `silpose eval handheld`: the hand-held accuracy experiment as a user runs it, in its --quick form.
+// `silpose eval handheld`: the hand-held accuracy experiment as a user runs it, in its --quick
+// form.
 
 #include <gtest/gtest.h>
 

@@ -52,9 +52,10 @@ std::vector<double> ParseDistances(const std::string& text) {
       values.push_back(std::stod(item, &used));
       if (used != item.size() || !std::isfinite(values.back())) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      ThrowError("--distances must be numbers of object radii separated by commas (or 'none'), "
-                 "got '",
-                 text, "'");
+      ThrowError(
+          "--distances must be numbers of object radii separated by commas (or 'none'), "
+          "got '",
+          text, "'");
     }
   }
   if (values.empty()) ThrowError("--distances needs at least one distance (or 'none')");
@@ -130,9 +131,10 @@ void PrintBins(const HandheldExperimentResult& result) {
   for (HandheldBinAxis axis : AllHandheldBinAxes()) {
     const std::vector<std::string> labels =
         HandheldBinLabels(axis, result.options.orbit_distances_radii);
-    std::printf("\nby %s (every mask quality run; frames %d and later): frames, right object %%, "
-                "median rotation error deg\n",
-                HandheldBinAxisName(axis), result.options.skip_frames);
+    std::printf(
+        "\nby %s (every mask quality run; frames %d and later): frames, right object %%, "
+        "median rotation error deg\n",
+        HandheldBinAxisName(axis), result.options.skip_frames);
     std::printf("%-10s", "bin");
     for (HandheldTracker tracker : trackers) std::printf(" | %-25s", HandheldTrackerName(tracker));
     std::printf("\n");
@@ -164,8 +166,7 @@ void WriteReadme(const std::filesystem::path& path, const HandheldExperimentResu
   file << "database: " << database.models.size() << " models x " << database.num_views()
        << " views:";
   for (const auto& p : paths) file << ' ' << p.string();
-  file << "\nevaluated models (" << result.models.size() << "): " << Joined(result.models)
-       << "\n";
+  file << "\nevaluated models (" << result.models.size() << "): " << Joined(result.models) << "\n";
   if (!models_note.empty()) file << models_note << "\n";
   file << "hand-held: " << o.sequences_per_model << " sequences per model, " << o.frames
        << " frames, seeds first_seed + model_order * " << o.sequences_per_model
@@ -240,11 +241,10 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
     }
     if (evaluate.empty()) {
       for (const auto& p : paths) evaluate.push_back(p.stem().string());
-      models_note =
-          "note: no held-out models (every database model is a tuning / sample model: " +
-          Joined(evaluate) +
-          "); evaluating those, so the figures are not held-out figures. Run next to "
-          "../shared/models for the 20-model reference set.";
+      models_note = "note: no held-out models (every database model is a tuning / sample model: " +
+                    Joined(evaluate) +
+                    "); evaluating those, so the figures are not held-out figures. Run next to "
+                    "../shared/models for the 20-model reference set.";
     } else {
       models_note = "held out: every database model except the tuning / sample models (" +
                     Joined({tuning.begin(), tuning.end()}) + ")";
@@ -301,9 +301,10 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
   std::printf(
       "\nrotation / translation errors: right-object frames with a pose; view error: every frame "
       "with an estimate; 'no-est': frames without any estimate (counted as wrong object)\n");
-  std::printf("%.1f s; wrote summary.csv, bins.csv, frames.csv, handheld.svg, handheld.png, "
-              "README.txt (command and seeds) in %s/\n",
-              result.seconds, folder.string().c_str());
+  std::printf(
+      "%.1f s; wrote summary.csv, bins.csv, frames.csv, handheld.svg, handheld.png, "
+      "README.txt (command and seeds) in %s/\n",
+      result.seconds, folder.string().c_str());
 }
 
 }  // namespace
@@ -339,8 +340,7 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       ->add_option("--distances", arguments->distances,
                    "Orbit distances, object radii, comma-separated, or 'none'")
       ->capture_default_str();
-  command
-      ->add_option("--mask-quality", arguments->mask_quality, "perfect, threshold or both")
+  command->add_option("--mask-quality", arguments->mask_quality, "perfect, threshold or both")
       ->capture_default_str();
   command->add_option("--threads", arguments->threads, "Sequences in parallel (0 = all cores)")
       ->capture_default_str();

@@ -151,7 +151,8 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
       }
       if (f.right_object && result.camera_from_object) {
         f.has_pose = true;
-        f.rotation_error_deg = RotationErrorDeg(result.camera_from_object->rotation, truth.rotation);
+        f.rotation_error_deg =
+            RotationErrorDeg(result.camera_from_object->rotation, truth.rotation);
         f.translation_error_percent =
             100.0 * (result.camera_from_object->translation - truth.translation).norm() /
             true_distance;
@@ -522,14 +523,12 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
   for (MaskQuality quality : options.mask_qualities)
     quality_names.push_back(MaskQualityName(quality));
   for (HandheldBinAxis axis : AllHandheldBinAxes()) {
-    const std::vector<std::string> labels =
-        HandheldBinLabels(axis, options.orbit_distances_radii);
+    const std::vector<std::string> labels = HandheldBinLabels(axis, options.orbit_distances_radii);
     // Each frame's bin, computed once per axis.
     std::vector<std::vector<const HandheldFrame*>> by_bin(labels.size() * quality_names.size() *
                                                           options.trackers.size());
     auto slot = [&](int bin, size_t quality, size_t tracker) {
-      return (static_cast<size_t>(bin) * quality_names.size() + quality) *
-                 options.trackers.size() +
+      return (static_cast<size_t>(bin) * quality_names.size() + quality) * options.trackers.size() +
              tracker;
     };
     for (const HandheldRun& run : result.runs) {
@@ -537,8 +536,7 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
           std::find(options.trackers.begin(), options.trackers.end(), run.tracker) -
           options.trackers.begin());
       const size_t quality = static_cast<size_t>(
-          std::find(quality_names.begin(), quality_names.end(),
-                    MaskQualityName(run.mask_quality)) -
+          std::find(quality_names.begin(), quality_names.end(), MaskQualityName(run.mask_quality)) -
           quality_names.begin());
       for (const HandheldFrame& f : run.frames) {
         if (f.frame < options.skip_frames) continue;
@@ -562,8 +560,7 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
       }
     }
   }
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
@@ -608,8 +605,8 @@ void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperi
   csv << HandheldFramesHeader() << '\n';
   for (const HandheldRun& run : result.runs) {
     const std::string prefix = run.model_name + ',' + run.KindLabel() + ',' +
-                               std::to_string(run.sequence) + ',' + std::to_string(run.seed) +
-                               ',' + MaskQualityName(run.mask_quality) + ',' +
+                               std::to_string(run.sequence) + ',' + std::to_string(run.seed) + ',' +
+                               MaskQualityName(run.mask_quality) + ',' +
                                HandheldTrackerName(run.tracker) + ',';
     for (const HandheldFrame& f : run.frames) {
       csv << prefix << f.frame << ',' << Cell(f.distance_radii) << ',' << Cell(f.off_axis_deg)
@@ -617,8 +614,7 @@ void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperi
           << (f.object >= 0 ? database.models[static_cast<size_t>(f.object)].name : "") << ','
           << (f.right_object ? 1 : 0) << ',' << (f.has_pose ? 1 : 0) << ','
           << Cell(f.rotation_error_deg) << ',' << Cell(f.translation_error_percent) << ','
-          << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms)
-          << '\n';
+          << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms) << '\n';
     }
   }
   CloseCsv(csv, path);
@@ -631,9 +627,8 @@ void WriteHandheldBins(const std::filesystem::path& path, const HandheldExperime
     const HandheldStats& s = row.stats;
     csv << HandheldBinAxisName(row.axis) << ',' << row.label << ',' << row.mask_quality << ','
         << HandheldTrackerName(row.tracker) << ',' << s.frames << ','
-        << (s.frames > 0 ? Cell(s.RightObjectPercent()) : "") << ','
-        << Cell(s.rotation_median_deg) << ',' << Cell(s.rotation_mean_deg) << ','
-        << Cell(s.translation_median_percent) << '\n';
+        << (s.frames > 0 ? Cell(s.RightObjectPercent()) : "") << ',' << Cell(s.rotation_median_deg)
+        << ',' << Cell(s.rotation_mean_deg) << ',' << Cell(s.translation_median_percent) << '\n';
   }
   CloseCsv(csv, path);
 }
@@ -647,8 +642,8 @@ Figure HandheldFigure(const HandheldExperimentResult& result) {
     panel.y_axis.label = "median rotation error (deg)";
     panel.y_axis.min = 0.0;
     const std::vector<double> centres = HandheldBinCentres(axis, options.orbit_distances_radii);
-    const size_t num_range_bins = axis == HandheldBinAxis::kDistance ? kDistanceLabels.size()
-                                                                     : centres.size();
+    const size_t num_range_bins =
+        axis == HandheldBinAxis::kDistance ? kDistanceLabels.size() : centres.size();
     int colour = 0;
     for (HandheldTracker tracker : options.trackers) {
       for (MaskQuality quality : options.mask_qualities) {
@@ -680,12 +675,11 @@ Figure HandheldFigure(const HandheldExperimentResult& result) {
   Figure figure;
   figure.width_px = 1200;
   figure.height_px = 460;
-  figure.panels = {
-      panel_for(HandheldBinAxis::kSpeed, "Rotation error by speed (hand-held)",
-                "true rotation speed (deg/frame, bin centre)"),
-      panel_for(HandheldBinAxis::kDistance,
-                "Rotation error by distance (hand-held; squares: orbits)",
-                "distance (object radii, bin centre)")};
+  figure.panels = {panel_for(HandheldBinAxis::kSpeed, "Rotation error by speed (hand-held)",
+                             "true rotation speed (deg/frame, bin centre)"),
+                   panel_for(HandheldBinAxis::kDistance,
+                             "Rotation error by distance (hand-held; squares: orbits)",
+                             "distance (object radii, bin centre)")};
   return figure;
 }
 

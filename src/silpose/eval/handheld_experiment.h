@@ -266,7 +266,8 @@ const char* HandheldBinsHeader();
 /// no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,
 /// translation_median_percent,view_error_mean,roll_median_deg,all_frames,
 /// all_right_object_percent,all_rotation_median_deg (empty cells for NaN).
-void WriteHandheldSummary(const std::filesystem::path& path, const HandheldExperimentResult& result);
+void WriteHandheldSummary(const std::filesystem::path& path,
+                          const HandheldExperimentResult& result);
 /// frames.csv: every frame of every run: model,kind,sequence,seed,mask_quality,tracker,frame,
 /// distance_radii,off_axis_deg,speed_deg_per_frame,cut,estimated_object,right_object,has_pose,
 /// rotation_error_deg,translation_error_percent,view_error,roll_error_deg,time_ms.

@@ -207,8 +207,8 @@ TEST(HandheldBins, BoundariesAndOrbits) {
   HandheldRun handheld;
   HandheldFrame f;
   auto bin = [&](HandheldBinAxis axis, const HandheldRun& run) {
-    return HandheldBinLabels(axis, distances)[static_cast<size_t>(
-        HandheldBinIndex(axis, run, f, distances))];
+    return HandheldBinLabels(
+        axis, distances)[static_cast<size_t>(HandheldBinIndex(axis, run, f, distances))];
   };
   f.distance_radii = 3.9;  // the end bins are open
   EXPECT_EQ(bin(HandheldBinAxis::kDistance, handheld), "4-5");
