@@ -27,7 +27,7 @@ function(silpose_library)
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
           LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/silpose/${ARG_NAME}
-          FILES_MATCHING PATTERN "*.h")
+          FILES_MATCHING PATTERN "*.h" PATTERN "*_testing.h" EXCLUDE)
 endfunction()
 
 # silpose_test(NAME name SOURCES ... LINKS ...): a GoogleTest executable registered with CTest.

@@ -1,5 +1,5 @@
 // `silpose eval bop DIR`: the evaluation on a dataset in the BOP format, run as a user runs it, on
-// a small dataset the test renders itself (eval/synthetic_bop_dataset.h).
+// a small dataset the test renders itself (eval/synthetic_bop_dataset_testing.h).
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "cli_runner.h"
-#include "silpose/eval/synthetic_bop_dataset.h"
+#include "silpose/eval/synthetic_bop_dataset_testing.h"
 
 namespace silpose {
 namespace {

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <string>
 
-#include "silpose/eval/synthetic_bop_dataset.h"
+#include "silpose/eval/synthetic_bop_dataset_testing.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/util/error.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "silpose/database/database_builder.h"
-#include "silpose/eval/synthetic_bop_dataset.h"
+#include "silpose/eval/synthetic_bop_dataset_testing.h"
 #include "silpose/util/error.h"
 
 namespace silpose {

@@ -1,7 +1,7 @@
 #pragma once
-// A small dataset in the BOP format (eval/bop_dataset.h), rendered by silpose with known truth:
-// the fixture of the `eval bop` tests, and a way to try the command without downloading a
-// dataset. Header-only (render, mesh, OpenCV imgcodecs and nlohmann-json), so that tests that do
+// A small dataset in the BOP format (eval/bop_dataset.h), rendered by silpose with known truth,
+// the fixture of the `eval bop` tests (not installed: *_testing.h headers are left out of the
+// install). Header-only (render, mesh, OpenCV imgcodecs and nlohmann-json), so that tests that do
 // not link the eval library can write it too.
 //
 //   ROOT/models/obj_000001.ply   a box 80 x 50 x 30 mm centred at its origin (three 180-degree
