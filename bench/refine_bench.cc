@@ -90,7 +90,8 @@ void BM_RefineToContour(benchmark::State& state) {
   }
   const int part = static_cast<int>(state.range(1));
   std::vector<std::unique_ptr<FrameOutline>> outlines;
-  for (const cv::Mat& mask : frames->masks) outlines.push_back(std::make_unique<FrameOutline>(mask));
+  for (const cv::Mat& mask : frames->masks)
+    outlines.push_back(std::make_unique<FrameOutline>(mask));
   ContourRefinementOptions options;
   size_t frame = 0;
   double iterations = 0.0, rms = 0.0;
@@ -102,12 +103,12 @@ void BM_RefineToContour(benchmark::State& state) {
     }
     ContourRefinementResult result;
     if (part == 0) {
-      result = RefinePoseToContour(*frames->model, frames->camera, *outlines[i],
-                                   frames->starts[i], options);
+      result = RefinePoseToContour(*frames->model, frames->camera, *outlines[i], frames->starts[i],
+                                   options);
     } else {
       const FrameOutline outline(frames->masks[i]);
-      result = RefinePoseToContour(*frames->model, frames->camera, outline, frames->starts[i],
-                                   options);
+      result =
+          RefinePoseToContour(*frames->model, frames->camera, outline, frames->starts[i], options);
     }
     iterations += result.iterations;
     rms += result.final_rms_px;

@@ -19,7 +19,8 @@ struct BuildDbArguments {
 void PrintDatabaseSummary(const ViewDatabase& database) {
   std::printf("%d views x %d distance shells (", database.num_views(), database.num_shells());
   for (int s = 0; s < database.num_shells(); ++s) {
-    std::printf("%s%g", s > 0 ? ", " : "", database.parameters.distances_in_radii[static_cast<size_t>(s)]);
+    std::printf("%s%g", s > 0 ? ", " : "",
+                database.parameters.distances_in_radii[static_cast<size_t>(s)]);
   }
   std::printf(" radii)\n");
   std::printf("%-24s %9s %10s %7s %8s %7s %7s\n", "model", "triangles", "radius", "usable",

@@ -243,8 +243,8 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
       for (const auto& p : paths) evaluate.push_back(p.stem().string());
       models_note = "note: no held-out models (every database model is a tuning / sample model: " +
                     Joined(evaluate) +
-                    "); evaluating those, so the figures are not held-out figures. Run next to "
-                    "../shared/models for the 20-model reference set.";
+                    "); evaluating those, so the figures are not held-out figures. Give more "
+                    "models with --models for held-out figures.";
     } else {
       models_note = "held out: every database model except the tuning / sample models (" +
                     Joined({tuning.begin(), tuning.end()}) + ")";
@@ -321,8 +321,8 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       "handheld.svg/.png and README.txt.");
   command->add_option("-o,--output", arguments->output, "Output folder")->capture_default_str();
   command->add_option("--models", arguments->models,
-                      "Database meshes: folders or files (default: ../shared/models when "
-                      "present, else the sample models)");
+                      "Database meshes: folders or files (default: the reference models when "
+                      "the source checkout has them beside it, else the sample models)");
   command
       ->add_option("--evaluate", arguments->evaluate,
                    "Models to film, by name (default: the database models that are not sample "

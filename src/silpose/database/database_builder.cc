@@ -88,8 +88,7 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
     }
   } else {
     tbb::task_arena arena(WorkerThreads(num_threads));
-    arena.execute(
-        [&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe); });
+    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe); });
   }
 }
 
@@ -110,10 +109,10 @@ ViewDatabase BuildViewDatabase(const std::vector<std::filesystem::path>& mesh_pa
   database.parameters = options.parameters;
   database.sphere = BuildViewSphere(options.parameters.view_sphere);
   const int num_views = database.sphere.num_views();
-  ProgressBar progress("build-db",
-                       static_cast<int64_t>(mesh_paths.size()) * num_views *
-                           options.parameters.num_shells(),
-                       options.show_progress && ProgressBar::StderrIsTerminal());
+  ProgressBar progress(
+      "build-db",
+      static_cast<int64_t>(mesh_paths.size()) * num_views * options.parameters.num_shells(),
+      options.show_progress && ProgressBar::StderrIsTerminal());
   database.models.resize(mesh_paths.size());
   for (size_t i = 0; i < mesh_paths.size(); ++i) {
     const TriangleMesh mesh = LoadMesh(mesh_paths[i]);

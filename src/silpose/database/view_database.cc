@@ -196,21 +196,8 @@ double ViewDatabase::ApparentRadius(int model, int view, int shell) const {
 }
 
 int ViewDatabase::ChooseShell(int model, int view, double apparent_radius) const {
-  const int shells = num_shells();
-  if (shells <= 1 || !(apparent_radius > 0.0) || !std::isfinite(apparent_radius)) return 0;
-  int best = 0;
-  double best_gap = std::numeric_limits<double>::infinity();
-  for (int s = 0; s < shells; ++s) {
-    const double shell_apparent = ApparentRadius(model, view, s);
-    if (!(shell_apparent > 0.0)) continue;
-    const double gap = ShellGap(apparent_radius, shell_apparent,
-                                parameters.distances_in_radii[static_cast<size_t>(s)]);
-    if (gap < best_gap) {
-      best_gap = gap;
-      best = s;
-    }
-  }
-  return best;
+  return NearestShell(apparent_radius, parameters.distances_in_radii,
+                      [&](int shell) { return ApparentRadius(model, view, shell); });
 }
 
 int ModelViews::signature_length() const {
@@ -393,7 +380,8 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       static_cast<int>(in.Get<uint32_t>("k-means iterations"));
   parameters.render.resolution_px = static_cast<int>(in.Get<uint32_t>("resolution"));
   const auto num_shells = in.Get<uint32_t>("shell count");
-  if (num_shells < 1 || num_shells > kMaxShells) in.Fail("shell count ", num_shells, " out of range");
+  if (num_shells < 1 || num_shells > kMaxShells)
+    in.Fail("shell count ", num_shells, " out of range");
   parameters.distances_in_radii.resize(num_shells);
   for (double& d : parameters.distances_in_radii) d = in.Get<double>("shell distance");
   parameters.render.distance_in_radii = parameters.distances_in_radii.front();
@@ -491,7 +479,8 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     for (auto& t : model.mesh.triangles) {
       for (size_t i = 0; i < 3; ++i) {
         const auto index = in.Get<uint32_t>("stored triangles");
-        if (index >= stored_vertices) in.Fail("model '", model.name, "' has a triangle index out of range");
+        if (index >= stored_vertices)
+          in.Fail("model '", model.name, "' has a triangle index out of range");
         t[i] = index;
       }
     }
@@ -525,7 +514,9 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     for (size_t v = 0; v < num_records; ++v) {
       if (model.views[v].status != SignatureStatus::kOk) continue;
       double sum = 0.0;
-      for (float r : model.Signature(static_cast<int>(v % num_views), static_cast<int>(v / num_views))) sum += r;
+      for (float r :
+           model.Signature(static_cast<int>(v % num_views), static_cast<int>(v / num_views)))
+        sum += r;
       if (std::abs(sum / length - 1.0) > 1e-3) {
         in.Fail("model '", model.name, "' view ", v, " has a signature that is not normalised");
       }

@@ -99,12 +99,29 @@ struct ModelViews {
   int views_per_shell = 0;
 };
 
-/// How far (in 1 / distance, per object radius) a frame silhouette of apparent size
-/// `apparent_radius` is from a shell at `shell_distance_in_radii` where the view's apparent size is
-/// `shell_apparent_radius`: |1 / D - 1 / D_s| with D = D_s a_s / a, i.e. |a / a_s - 1| / D_s.
-inline double ShellGap(double apparent_radius, double shell_apparent_radius,
-                       double shell_distance_in_radii) {
-  return std::abs(apparent_radius / shell_apparent_radius - 1.0) / shell_distance_in_radii;
+/// The shell rule of ViewDatabase::ChooseShell for one view: `shell_apparent(s)` gives the view's
+/// apparent size in shell s (0 if unusable), `distances_in_radii` the shells' distances. The gap
+/// to shell s is |1 / D - 1 / D_s| with D = D_s a_s / a, i.e. |a / a_s - 1| / D_s.
+template <typename ShellApparent>
+int NearestShell(double apparent_radius, const std::vector<double>& distances_in_radii,
+                 ShellApparent&& shell_apparent) {
+  const int shells = static_cast<int>(distances_in_radii.size());
+  if (shells <= 1 || !(apparent_radius > 0.0) || !std::isfinite(apparent_radius)) return 0;
+  int best = 0;
+  double best_gap = 0.0;
+  bool found = false;
+  for (int s = 0; s < shells; ++s) {
+    const double a_s = shell_apparent(s);
+    if (!(a_s > 0.0)) continue;
+    const double gap =
+        std::abs(apparent_radius / a_s - 1.0) / distances_in_radii[static_cast<size_t>(s)];
+    if (!found || gap < best_gap) {
+      best_gap = gap;
+      best = s;
+      found = true;
+    }
+  }
+  return best;
 }
 
 class ViewDatabase {

@@ -1,5 +1,6 @@
 #include "silpose/filter/particle_filter.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -9,8 +10,6 @@
 #include <numeric>
 #include <sstream>
 #include <unordered_set>
-
-#include <Eigen/Geometry>
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/util/error.h"
@@ -187,13 +186,15 @@ FilterEstimate ParticleFilter::Step(const SignatureSpectrum& frame, double appar
     ThrowError("frame spectrum has ", frame.coefficients.size(),
                " coefficients, the database's signatures need ", expected);
   }
-  apparent_radius_ = std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
+  apparent_radius_ =
+      std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
   return Advance(&frame);
 }
 
 FilterEstimate ParticleFilter::Step(std::span<const float> radii, double apparent_radius) {
   correlator_.Transform(radii, &frame_spectrum_);
-  apparent_radius_ = std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
+  apparent_radius_ =
+      std::isfinite(apparent_radius) && apparent_radius > 0.0 ? apparent_radius : 0.0;
   return Advance(&frame_spectrum_);
 }
 
@@ -266,12 +267,19 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   estimate.object_probability.assign(static_cast<size_t>(num_objects_), 0.0);
   estimate.particles_per_object.assign(static_cast<size_t>(num_objects_), 0);
   double sum_squares = 0.0;
+  auto sum_weights = [&] {
+    std::fill(estimate.object_probability.begin(), estimate.object_probability.end(), 0.0);
+    sum_squares = 0.0;
+    for (const Particle& p : particles_) {
+      estimate.object_probability[static_cast<size_t>(p.object)] += p.weight;
+      sum_squares += p.weight * p.weight;
+    }
+  };
+  sum_weights();
   size_t best = 0;
   for (size_t i = 0; i < particles_.size(); ++i) {
     const Particle& p = particles_[i];
-    estimate.object_probability[static_cast<size_t>(p.object)] += p.weight;
     ++estimate.particles_per_object[static_cast<size_t>(p.object)];
-    sum_squares += p.weight * p.weight;
     const Particle& b = particles_[best];
     if (p.weight > b.weight || (p.weight == b.weight && p.score > b.score)) best = i;
   }
@@ -289,20 +297,14 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
     const double top_score = particles_[top].score;
     if (top_score >= options_.cut_min_score &&
         top_score - particles_[best].score >= options_.cut_score_gap) {
-      const double total = 1.0;  // weights are normalised
-      if (particles_[top].weight < 0.5 * total) {
-        const double rest = total - particles_[top].weight;
-        const double scale = rest > 0.0 ? 0.5 * total / rest : 0.0;
+      // The weights sum to 1: the top particle takes half, the others share the rest.
+      if (particles_[top].weight < 0.5) {
+        const double scale = 0.5 / (1.0 - particles_[top].weight);
         for (size_t i = 0; i < particles_.size(); ++i) {
           if (i != top) particles_[i].weight *= scale;
         }
-        particles_[top].weight = 0.5 * total;
-        std::fill(estimate.object_probability.begin(), estimate.object_probability.end(), 0.0);
-        sum_squares = 0.0;
-        for (const Particle& p : particles_) {
-          estimate.object_probability[static_cast<size_t>(p.object)] += p.weight;
-          sum_squares += p.weight * p.weight;
-        }
+        particles_[top].weight = 0.5;
+        sum_weights();
       }
       best = top;
       estimate.cut = true;
@@ -425,6 +427,10 @@ void ParticleFilter::PredictParticles() {
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> roll_noise(0.0, options_.roll_noise_deg);
   std::normal_distribution<double> normal(0.0, 1.0);
+  // kAdaptive: the rotation noise per axis, grown with the tracked speed.
+  const double sigma_rad = (options_.rotation_noise_deg + options_.rotation_noise_speed_factor *
+                                                              (velocity_.norm() / kRadPerDeg)) *
+                           kRadPerDeg;
   for (Particle& p : particles_) {
     if (options_.jump_probability > 0.0 && uniform(rng_) < options_.jump_probability) {
       p.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
@@ -433,7 +439,7 @@ void ParticleFilter::PredictParticles() {
       continue;
     }
     if (options_.motion_model == MotionModel::kAdaptive) {
-      PredictAdaptive(p, normal);
+      PredictAdaptive(p, sigma_rad, uniform, normal);
       continue;
     }
     if (uniform(rng_) >= options_.stay_probability) {
@@ -453,28 +459,27 @@ void ParticleFilter::PredictParticles() {
   }
 }
 
-void ParticleFilter::PredictAdaptive(Particle& p, std::normal_distribution<double>& normal) {
-  const double sigma_rad =
-      (options_.rotation_noise_deg + options_.rotation_noise_speed_factor *
-                                         (velocity_.norm() / kRadPerDeg)) * kRadPerDeg;
+void ParticleFilter::PredictAdaptive(Particle& p, double sigma_rad,
+                                     std::uniform_real_distribution<double>& uniform,
+                                     std::normal_distribution<double>& normal) {
   if (!p.roll_known) {
     // No orientation yet (never measured, or jumped): only the view diffuses.
     const Eigen::Vector3d& d = sphere_.directions[static_cast<size_t>(p.view)];
     const Eigen::Vector3d noise(normal(rng_) * sigma_rad, normal(rng_) * sigma_rad,
                                 normal(rng_) * sigma_rad);
     const double angle = noise.norm();
-    const Eigen::Vector3d moved =
-        angle > 0.0 ? Eigen::AngleAxisd(angle, noise / angle) * d : d;
+    const Eigen::Vector3d moved = angle > 0.0 ? Eigen::AngleAxisd(angle, noise / angle) * d : d;
     p.view = NearestView(p.view, moved);
     return;
   }
   // The camera orientation: roll about the optical axis after the view's roll-0 rotation.
   const Eigen::Matrix3d rotation =
-      Eigen::AngleAxisd(p.roll_deg * kRadPerDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix()
-          .transpose() * view_rotation_[static_cast<size_t>(p.view)];
+      Eigen::AngleAxisd(p.roll_deg * kRadPerDeg, Eigen::Vector3d::UnitZ())
+          .toRotationMatrix()
+          .transpose() *
+      view_rotation_[static_cast<size_t>(p.view)];
   Eigen::Vector3d step(normal(rng_) * sigma_rad, normal(rng_) * sigma_rad,
                        normal(rng_) * sigma_rad);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
   Eigen::Matrix3d moved = rotation;
   if (options_.velocity_share > 0.0 && velocity_.squaredNorm() > 0.0 &&
       uniform(rng_) < options_.velocity_share) {
@@ -512,34 +517,37 @@ int ParticleFilter::NearestView(int start, const Eigen::Vector3d& direction) con
   return current;
 }
 
+std::vector<size_t> ParticleFilter::ObjectRanges() const {
+  // Particles are sorted by object: object o holds [begin[o], begin[o + 1]).
+  const auto num_objects = static_cast<size_t>(num_objects_);
+  std::vector<size_t> begin(num_objects + 1, particles_.size());
+  for (size_t i = particles_.size(); i-- > 0;) begin[static_cast<size_t>(particles_[i].object)] = i;
+  for (size_t o = num_objects; o-- > 0;) begin[o] = std::min(begin[o], begin[o + 1]);
+  return begin;
+}
+
 int ParticleFilter::Propose(const SignatureSpectrum& frame) {
   // Object masses and mean particle weights before the proposal.
   const auto num_objects = static_cast<size_t>(num_objects_);
   std::vector<double> mass(num_objects, 0.0);
-  std::vector<int> count(num_objects, 0);
-  for (const Particle& p : particles_) {
-    mass[static_cast<size_t>(p.object)] += p.weight;
-    ++count[static_cast<size_t>(p.object)];
-  }
+  for (const Particle& p : particles_) mass[static_cast<size_t>(p.object)] += p.weight;
   const auto top = static_cast<int>(std::max_element(mass.begin(), mass.end()) - mass.begin());
-  std::vector<size_t> begin(num_objects + 1, particles_.size());
-  for (size_t i = particles_.size(); i-- > 0;) begin[static_cast<size_t>(particles_[i].object)] = i;
-  for (size_t o = num_objects; o-- > 0;) begin[o] = std::min(begin[o], begin[o + 1]);
+  const std::vector<size_t> begin = ObjectRanges();
   int proposed = 0;
   std::vector<size_t> order;
   for (int o = 0; o < num_objects_; ++o) {
     const auto object = static_cast<size_t>(o);
-    if (count[object] == 0) continue;
+    const size_t count = begin[object + 1] - begin[object];
+    if (count == 0) continue;
     const int wanted = o == top && measured_once_ ? options_.proposal_views : 1;
     const std::vector<CandidateView> candidates = BestViewsOfObject(frame, o, wanted);
     if (candidates.empty()) continue;
     // The object's particles by increasing weight: the lightest are replaced.
     order.clear();
     for (size_t i = begin[object]; i < begin[object + 1]; ++i) order.push_back(i);
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-      return particles_[a].weight < particles_[b].weight;
-    });
-    const double mean_weight = mass[object] / count[object];
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return particles_[a].weight < particles_[b].weight; });
+    const double mean_weight = mass[object] / static_cast<double>(count);
     // Prior of each candidate place, from the predicted particles (before any is replaced).
     // The proposed particle continues the history of the heaviest particle there (or of the
     // object's heaviest): where the sequence's evidence for that place comes from.
@@ -595,10 +603,9 @@ void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
   const int length = spectra_.signature_length();
   const double bins_per_degree = length / 360.0;
   const double window_deg =
-      std::min(180.0, options_.roll_search_deg +
-                          (options_.motion_model == MotionModel::kAdaptive
-                               ? velocity_.norm() / kRadPerDeg
-                               : 0.0));
+      std::min(180.0, options_.roll_search_deg + (options_.motion_model == MotionModel::kAdaptive
+                                                      ? velocity_.norm() / kRadPerDeg
+                                                      : 0.0));
   const double window_bins = window_deg * bins_per_degree;
   // Group the particles by (object, view): linked lists through group_next_.
   group_next_.resize(particles_.size());
@@ -704,8 +711,8 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
     if (spectra_.Usable(object, v)) bounds_.push_back({ranking_[v], v});
   }
   // Correlate the guided_candidates best ranked views exactly (each in its shell).
-  const auto candidates = std::min(
-      bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
+  const auto candidates =
+      std::min(bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
   std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(candidates),
                     bounds_.end(), std::greater<>());
   for (size_t c = 0; c < candidates; ++c) {
@@ -725,11 +732,7 @@ void ParticleFilter::Resample(const std::vector<double>& object_mass,
                               const SignatureSpectrum* frame) {
   const auto num_objects = static_cast<size_t>(num_objects_);
   const int floor = options_.min_particles_per_object;
-  std::vector<size_t> begin(num_objects + 1, particles_.size());
-  for (size_t i = particles_.size(); i-- > 0;) {
-    begin[static_cast<size_t>(particles_[i].object)] = i;
-  }
-  for (size_t o = num_objects; o-- > 0;) begin[o] = std::min(begin[o], begin[o + 1]);
+  const std::vector<size_t> begin = ObjectRanges();
 
   // A joint systematic draw decides how many particles each object deserves.
   std::vector<double> weights(particles_.size());

@@ -104,13 +104,13 @@
 //  3. Estimate (EstimateRule). Cut rule first (cut_score_gap): a particle that matches the frame
 //     cleanly (score >= cut_min_score) and far better than the rule's choice (by cut_score_gap) is
 //     reported and gets half of the total weight: after a cut the posterior would otherwise need
-//     a frame or two, against the likelihood floor, to move to the proposal. Then, by default the object of largest mass, in it the view whose
-//     neighbourhood (the view and its neighbours) holds the most weight, and in that
-//     neighbourhood the particle of largest weight, which gives view, roll and score. The single
-//     heaviest particle (kHeaviestParticle, the paper's rule) follows a degraded frame: one
-//     badly segmented frame makes a lone look-alike particle the heaviest while most of the mass
-//     stays near the truth. Also reported: every object's mass, the particle counts, ESS =
-//     1 / sum(w_i^2) over the normalised weights (before resampling).
+//     a frame or two, against the likelihood floor, to move to the proposal. Then, by default the
+//     object of largest mass, in it the view whose neighbourhood (the view and its neighbours)
+//     holds the most weight, and in that neighbourhood the particle of largest weight, which gives
+//     view, roll and score. The single heaviest particle (kHeaviestParticle, the paper's rule)
+//     follows a degraded frame: one badly segmented frame makes a lone look-alike particle the
+//     heaviest while most of the mass stays near the truth. Also reported: every object's mass, the
+//     particle counts, ESS = 1 / sum(w_i^2) over the normalised weights (before resampling).
 //  4. History: every particle gets a history node for this frame (below).
 //  5. Resampling (sampling importance resampling, systematic / low-variance) when
 //     ESS < resample_threshold * N, N = current number of particles (paper: 2N/3, after
@@ -245,10 +245,10 @@ struct ParticleFilterOptions {
   double cut_min_score = 0.97;
   double cut_score_gap = 0.05;
   /// Motion model kNeighbour: probability that a particle keeps its view in one frame; otherwise
-  /// it moves to a uniformly chosen neighbour. In [0, 1]. At 1 degree per frame the true nearest view changes
-  /// every ~6 frames (1000 views, 6.4 degree spacing). Insensitive with guided reseeding (tuning
-  /// set, 20 % degraded: pose error 0.0605 / 0.0604 / 0.0603 for 0.3 / 0.5 / 0.7); without it
-  /// 0.3 and 0.7 were worse than 0.5 (0.070 and 0.067 against 0.061).
+  /// it moves to a uniformly chosen neighbour. In [0, 1]. At 1 degree per frame the true nearest
+  /// view changes every ~6 frames (1000 views, 6.4 degree spacing). Insensitive with guided
+  /// reseeding (tuning set, 20 % degraded: pose error 0.0605 / 0.0604 / 0.0603 for 0.3 / 0.5 /
+  /// 0.7); without it 0.3 and 0.7 were worse than 0.5 (0.070 and 0.067 against 0.061).
   double stay_probability = 0.5;
   /// Motion model: probability that a particle jumps to a uniformly random view of its object
   /// (roll unknown again) instead of the above. In [0, 1]. Without guided reseeding this is what
@@ -439,7 +439,11 @@ class ParticleFilter {
  private:
   FilterEstimate Advance(const SignatureSpectrum* frame);
   void PredictParticles();
-  void PredictAdaptive(Particle& particle, std::normal_distribution<double>& normal);
+  void PredictAdaptive(Particle& particle, double sigma_rad,
+                       std::uniform_real_distribution<double>& uniform,
+                       std::normal_distribution<double>& normal);
+  /// Where each object's particles start in particles_ (sorted by object), and the end.
+  std::vector<size_t> ObjectRanges() const;
   int NearestView(int start, const Eigen::Vector3d& direction) const;
   int Propose(const SignatureSpectrum& frame);
   void UpdateVelocity(const FilterEstimate& estimate);

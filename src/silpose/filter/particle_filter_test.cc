@@ -388,10 +388,10 @@ TEST_F(ParticleFilterTest, BestHistoryHasOneStatePerFrameEndingWithTheEstimate) 
   const double max_step_rad = 4.0 * Sphere().typical_spacing_rad;
   for (size_t f = 15; f < history.size(); ++f) {
     EXPECT_EQ(history[f].object, path[f].object);
-    const double step = std::acos(std::clamp(
-        Sphere().directions[static_cast<size_t>(history[f].view)].dot(
-            Sphere().directions[static_cast<size_t>(history[f - 1].view)]),
-        -1.0, 1.0));
+    const double step =
+        std::acos(std::clamp(Sphere().directions[static_cast<size_t>(history[f].view)].dot(
+                                 Sphere().directions[static_cast<size_t>(history[f - 1].view)]),
+                             -1.0, 1.0));
     EXPECT_LE(step, max_step_rad) << "frame " << f;
   }
 }

@@ -1,7 +1,7 @@
 #pragma once
 // Rigid transforms. Convention, stated once for the whole project:
 //   b_from_a = (R, t) maps a point given in frame a to frame b:  x_in_b = R * x_in_a + t.
-// `object_to_camera` in DESIGN.md is camera_from_object in this notation.
+// The `object_to_camera` pose of the output files (r00..r22, tx..tz) is camera_from_object here.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

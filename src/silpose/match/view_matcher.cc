@@ -74,28 +74,16 @@ void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
 }
 
 int ViewSpectra::ChooseShell(int model, int view, double apparent_radius) const {
-  if (num_shells_ <= 1 || !(apparent_radius > 0.0) || !std::isfinite(apparent_radius)) return 0;
-  int best = 0;
-  double best_gap = std::numeric_limits<double>::infinity();
-  for (int s = 0; s < num_shells_; ++s) {
-    const double shell_apparent =
-        apparent_[Index(model, s) * static_cast<size_t>(num_views_) + static_cast<size_t>(view)];
-    if (!(shell_apparent > 0.0)) continue;
-    const double gap = ShellGap(apparent_radius, shell_apparent,
-                                database_.parameters.distances_in_radii[static_cast<size_t>(s)]);
-    if (gap < best_gap) {
-      best_gap = gap;
-      best = s;
-    }
-  }
-  return best;
+  return NearestShell(apparent_radius, database_.parameters.distances_in_radii, [&](int shell) {
+    return static_cast<double>(apparent_[Index(model, shell) * static_cast<size_t>(num_views_) +
+                                         static_cast<size_t>(view)]);
+  });
 }
 
 ViewMatcher::ViewMatcher(const ViewSpectra& spectra)
     : spectra_(spectra), correlator_(spectra.signature_length(), spectra.options()) {}
 
-CorrelationPeak ViewMatcher::Score(const SignatureSpectrum& query, int model, int view,
-                                   int shell) {
+CorrelationPeak ViewMatcher::Score(const SignatureSpectrum& query, int model, int view, int shell) {
   return correlator_.Peak(query, spectra_.Get(model, view, shell));
 }
 
@@ -170,8 +158,9 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
       }
       std::pop_heap(bounds.begin(), bounds.end());
       bounds.pop_back();
-      offer(make_candidate(next.model, next.view, next.shell,
-                           correlator_.Peak(query_, spectra_.Get(next.model, next.view, next.shell))));
+      offer(make_candidate(
+          next.model, next.view, next.shell,
+          correlator_.Peak(query_, spectra_.Get(next.model, next.view, next.shell))));
       ++stats_.views_correlated;
     }
   }

@@ -54,9 +54,9 @@ struct MatchStats {
 
 /// Holds the spectra of every database view, in every distance shell. A view's spectrum is
 /// computed when it is first used (one FFT; thread-safe), so a sequence seen at one distance never
-/// pays for the other shells, and a particle filter only for the views its particles visit. Searching is read-only on it but uses per-object
-/// scratch space, so use one ViewMatcher per thread (they can share one ViewSpectra). `database`
-/// must outlive it.
+/// pays for the other shells, and a particle filter only for the views its particles visit.
+/// Searching is read-only on it but uses per-object scratch space, so use one ViewMatcher per
+/// thread (they can share one ViewSpectra). `database` must outlive it.
 class ViewSpectra {
  public:
   explicit ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options = {});

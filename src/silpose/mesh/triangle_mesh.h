@@ -1,6 +1,6 @@
 #pragma once
-// Triangle meshes of the reference objects, in the mesh file's own frame and units (DESIGN.md):
-// nothing is recentred, rescaled or reoriented on loading.
+// Triangle meshes of the reference objects, in the mesh file's own frame and units
+// (docs/conventions.md): nothing is recentred, rescaled or reoriented on loading.
 
 #include <Eigen/Core>
 #include <array>

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
-#include <memory>
 #include <sstream>
 #include <utility>
 
@@ -40,7 +40,8 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 // Pixel of a camera-frame point (z > 0) and, if `jacobian` is non-null, d(pixel) / d(point).
 Eigen::Vector2d ProjectWithJacobian(const PinholeCamera& camera, bool distorted,
-                                    const Eigen::Vector3d& x, Eigen::Matrix<double, 2, 3>* jacobian) {
+                                    const Eigen::Vector3d& x,
+                                    Eigen::Matrix<double, 2, 3>* jacobian) {
   const double inv_z = 1.0 / x.z();
   const Eigen::Vector2d ideal(x.x() * inv_z, x.y() * inv_z);
   Eigen::Vector2d normalized = ideal;
@@ -49,8 +50,8 @@ Eigen::Vector2d ProjectWithJacobian(const PinholeCamera& camera, bool distorted,
   if (jacobian != nullptr) {
     Eigen::Matrix<double, 2, 3> d_ideal;
     d_ideal << inv_z, 0.0, -ideal.x() * inv_z, 0.0, inv_z, -ideal.y() * inv_z;
-    *jacobian = Eigen::DiagonalMatrix<double, 2>(camera.focal_x_px, camera.focal_y_px) *
-                d_distort * d_ideal;
+    *jacobian = Eigen::DiagonalMatrix<double, 2>(camera.focal_x_px, camera.focal_y_px) * d_distort *
+                d_ideal;
   }
   return {camera.focal_x_px * normalized.x() + camera.principal_x_px,
           camera.focal_y_px * normalized.y() + camera.principal_y_px};
@@ -156,8 +157,8 @@ void RenderWindow(const TriangleMesh& mesh, const PinholeCamera& camera, const R
 }
 
 // Outline points into ws.points (see the header).
-void SelectOutlinePoints(const ContourModel& model, const PinholeCamera& camera,
-                         const Rigid3& pose, int max_points, Workspace& ws) {
+void SelectOutlinePoints(const ContourModel& model, const PinholeCamera& camera, const Rigid3& pose,
+                         int max_points, Workspace& ws) {
   ws.points.clear();
   ws.offsets.clear();
   ws.normals.clear();
@@ -203,9 +204,8 @@ void SelectOutlinePoints(const ContourModel& model, const PinholeCamera& camera,
     ws.contour_edges.push_back(&e);
   }
   if (!(total_length > 0.0)) return;
-  const double spacing =
-      std::max(total_length / (static_cast<double>(kCandidatesPerPoint) * max_points),
-               kMinSpacingPx);
+  const double spacing = std::max(
+      total_length / (static_cast<double>(kCandidatesPerPoint) * max_points), kMinSpacingPx);
 
   const uint8_t* render = ws.render.ptr<uint8_t>(0);
   const size_t stride = ws.render.step[0];
@@ -295,8 +295,7 @@ struct Evaluation {
 
 Evaluation Evaluate(const PinholeCamera& camera, bool distorted, const FrameOutline& frame,
                     const Rigid3& pose, const Eigen::Vector3d& centre_in_camera, Workspace& ws,
-                    const ContourRefinementOptions& options, Matrix6d* normal,
-                    Vector6d* gradient) {
+                    const ContourRefinementOptions& options, Matrix6d* normal, Vector6d* gradient) {
   Evaluation out;
   const double k = options.huber_px;
   const double truncated = HuberLoss(options.max_residual_px, k);
@@ -402,10 +401,9 @@ class DistortionGrid {
     nodes_.resize(static_cast<size_t>(columns_) * rows_);
     for (int j = 0; j < rows_; ++j) {
       for (int i = 0; i < columns_; ++i) {
-        const Eigen::Vector2d ideal((origin_.x + i * kStep - camera.principal_x_px) /
-                                        camera.focal_x_px,
-                                    (origin_.y + j * kStep - camera.principal_y_px) /
-                                        camera.focal_y_px);
+        const Eigen::Vector2d ideal(
+            (origin_.x + i * kStep - camera.principal_x_px) / camera.focal_x_px,
+            (origin_.y + j * kStep - camera.principal_y_px) / camera.focal_y_px);
         const Eigen::Vector2d d = DistortNormalized(camera.distortion, ideal);
         nodes_[static_cast<size_t>(j) * columns_ + i] = {
             camera.focal_x_px * d.x() + camera.principal_x_px,
@@ -489,8 +487,8 @@ double ComputeIou(const ContourModel& model, const PinholeCamera& camera, bool d
         const Eigen::Vector2d d = grid.At(x, y);
         const int u = static_cast<int>(std::lround(d.x()));
         const int v = static_cast<int>(std::lround(d.y()));
-        const bool in_b = u >= 0 && v >= 0 && u < mask.cols && v < mask.rows &&
-                          mask.at<uint8_t>(v, u) != 0;
+        const bool in_b =
+            u >= 0 && v >= 0 && u < mask.cols && v < mask.rows && mask.at<uint8_t>(v, u) != 0;
         const bool in_a = a[x] != 0;
         both += in_a && in_b;
         either += in_a || in_b;
@@ -511,13 +509,12 @@ bool ContourRefinementOptions::Check(std::string* error) const {
   } else if (!(huber_px > 0.0) || !std::isfinite(huber_px)) {
     message << "huber_px must be positive and finite, got " << huber_px;
   } else if (!(max_residual_px > huber_px) || !std::isfinite(max_residual_px)) {
-    message << "max_residual_px must be finite and larger than huber_px (" << huber_px
-            << "), got " << max_residual_px;
+    message << "max_residual_px must be finite and larger than huber_px (" << huber_px << "), got "
+            << max_residual_px;
   } else if (reselect_every < 1) {
     message << "reselect_every must be >= 1, got " << reselect_every;
   } else if (!(tolerance_rotation_deg > 0.0) || !std::isfinite(tolerance_rotation_deg)) {
-    message << "tolerance_rotation_deg must be positive and finite, got "
-            << tolerance_rotation_deg;
+    message << "tolerance_rotation_deg must be positive and finite, got " << tolerance_rotation_deg;
   } else if (!(tolerance_translation > 0.0) || !std::isfinite(tolerance_translation)) {
     message << "tolerance_translation must be positive and finite, got " << tolerance_translation;
   } else if (!(tolerance_cost_px2 >= 0.0) || !std::isfinite(tolerance_cost_px2)) {
@@ -567,19 +564,20 @@ FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
         outline_points_.emplace_back(window_.x + x, window_.y + y + 0.5);
         edge = true;
       }
-      edge = edge || (x > 0 && in != (o[x - 1] != 0)) || (above != nullptr && in != (above[x] != 0));
+      edge =
+          edge || (x > 0 && in != (o[x - 1] != 0)) || (above != nullptr && in != (above[x] != 0));
       d[x] = edge ? 0.0f : kFar;
     }
     // Forward pass: the row above (no dependency along the row), then a sweep to the right.
     if (d_above != nullptr) {
       d[0] = std::min({d[0], d_above[0] + 1.0f, d_above[std::min(1, width - 1)] + kDiagonal});
       for (int x = 1; x + 1 < width; ++x) {
-        d[x] = std::min({d[x], d_above[x] + 1.0f, d_above[x - 1] + kDiagonal,
-                         d_above[x + 1] + kDiagonal});
+        d[x] = std::min(
+            {d[x], d_above[x] + 1.0f, d_above[x - 1] + kDiagonal, d_above[x + 1] + kDiagonal});
       }
       if (width > 1) {
-        d[width - 1] = std::min(
-            {d[width - 1], d_above[width - 1] + 1.0f, d_above[width - 2] + kDiagonal});
+        d[width - 1] =
+            std::min({d[width - 1], d_above[width - 1] + 1.0f, d_above[width - 2] + kDiagonal});
       }
     }
     for (int x = 1; x < width; ++x) d[x] = std::min(d[x], d[x - 1] + 1.0f);
@@ -591,12 +589,12 @@ FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
     if (d_below != nullptr) {
       d[0] = std::min({d[0], d_below[0] + 1.0f, d_below[std::min(1, width - 1)] + kDiagonal});
       for (int x = 1; x + 1 < width; ++x) {
-        d[x] = std::min({d[x], d_below[x] + 1.0f, d_below[x - 1] + kDiagonal,
-                         d_below[x + 1] + kDiagonal});
+        d[x] = std::min(
+            {d[x], d_below[x] + 1.0f, d_below[x - 1] + kDiagonal, d_below[x + 1] + kDiagonal});
       }
       if (width > 1) {
-        d[width - 1] = std::min(
-            {d[width - 1], d_below[width - 1] + 1.0f, d_below[width - 2] + kDiagonal});
+        d[width - 1] =
+            std::min({d[width - 1], d_below[width - 1] + 1.0f, d_below[width - 2] + kDiagonal});
       }
     }
     for (int x = width - 2; x >= 0; --x) d[x] = std::min(d[x], d[x + 1] + 1.0f);
@@ -610,8 +608,7 @@ FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
   }
 }
 
-bool FrameOutline::Distance(double u, double v, double* distance,
-                            Eigen::Vector2d* gradient) const {
+bool FrameOutline::Distance(double u, double v, double* distance, Eigen::Vector2d* gradient) const {
   const double x = u - window_.x;
   const double y = v - window_.y;
   const int last_x = window_.width - 1;
@@ -678,9 +675,9 @@ ContourModel::ContourModel(const TriangleMesh& mesh) : mesh_(mesh) {
     edge.face1 = j > i + 1 ? static_cast<int32_t>(half_edges[i + 1].second >> 1) : -1;
     edge.flipped = j > i + 1 && (half_edges[i].second & 1) == (half_edges[i + 1].second & 1);
     // Degenerate faces (zero normal) face no side: skip edges to them rather than see a contour.
-    const bool degenerate = normals_[static_cast<size_t>(edge.face0)].squaredNorm() == 0.0 ||
-                            (edge.face1 >= 0 &&
-                             normals_[static_cast<size_t>(edge.face1)].squaredNorm() == 0.0);
+    const bool degenerate =
+        normals_[static_cast<size_t>(edge.face0)].squaredNorm() == 0.0 ||
+        (edge.face1 >= 0 && normals_[static_cast<size_t>(edge.face1)].squaredNorm() == 0.0);
     if (!degenerate) edges_.push_back(edge);
     if (j != i + 2 || edge.flipped) closed_ = false;
     i = j;
@@ -708,9 +705,8 @@ Rigid3 ApplyContourUpdate(const Rigid3& pose, const Eigen::Vector3d& centre,
                           const Eigen::Matrix<double, 6, 1>& update) {
   const Eigen::Vector3d w = update.head<3>();
   const double angle = w.norm();
-  const Eigen::Matrix3d turn =
-      angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                  : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d turn = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                                           : Eigen::Matrix3d::Identity();
   const Eigen::Vector3d centre_in_camera = pose.rotation * centre + pose.translation;
   Rigid3 out;
   out.rotation = turn * pose.rotation;
@@ -813,8 +809,7 @@ ContourRefinementResult RefinePoseToContour(const ContourModel& model, const Pin
         continue;
       }
       const Rigid3 candidate = ApplyContourUpdate(pose, centre, step);
-      const Eigen::Vector3d candidate_centre =
-          candidate.rotation * centre + candidate.translation;
+      const Eigen::Vector3d candidate_centre = candidate.rotation * centre + candidate.translation;
       const Evaluation trial = Evaluate(camera, distorted, frame, candidate, candidate_centre, ws,
                                         options, nullptr, nullptr);
       if (trial.cost < current.cost) {

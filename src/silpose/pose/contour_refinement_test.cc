@@ -91,8 +91,8 @@ Rigid3 TruePose(const TriangleMesh& mesh, const Eigen::Vector3d& view, double ro
 Rigid3 Perturb(const Rigid3& pose, const Eigen::Vector3d& centre, double angle_deg,
                double move_fraction, std::mt19937& random) {
   std::normal_distribution<double> gauss;
-  const Eigen::Vector3d axis = Eigen::Vector3d(gauss(random), gauss(random), gauss(random))
-                                   .normalized();
+  const Eigen::Vector3d axis =
+      Eigen::Vector3d(gauss(random), gauss(random), gauss(random)).normalized();
   const Eigen::Vector3d direction =
       Eigen::Vector3d(gauss(random), gauss(random), gauss(random)).normalized();
   const double distance = (pose.rotation * centre + pose.translation).norm();
@@ -118,8 +118,7 @@ Errors ErrorsOf(const Rigid3& estimate, const Rigid3& truth, const Eigen::Vector
 
 double Percentile(std::vector<double> values, double fraction) {
   std::sort(values.begin(), values.end());
-  const size_t index =
-      static_cast<size_t>(fraction * static_cast<double>(values.size() - 1) + 0.5);
+  const size_t index = static_cast<size_t>(fraction * static_cast<double>(values.size() - 1) + 0.5);
   return values[index];
 }
 
@@ -202,8 +201,7 @@ TEST(ContourRefinementTest, BadInputsThrow) {
     FrameOutline outline(empty);
     FAIL() << "no exception for an empty mask";
   } catch (const Error& error) {
-    EXPECT_NE(std::string(error.what()).find("no object pixel"), std::string::npos)
-        << error.what();
+    EXPECT_NE(std::string(error.what()).find("no object pixel"), std::string::npos) << error.what();
   }
   EXPECT_THROW(FrameOutline(cv::Mat()), Error);
   EXPECT_THROW(FrameOutline(cv::Mat::zeros(480, 640, CV_32FC1)), Error);
@@ -266,10 +264,10 @@ TEST(ContourRefinementTest, JacobianMatchesNumericDerivatives) {
       const double h = k < 3 ? 1e-6 : 1e-6 * distance;
       Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
       step[k] = h;
-      ContourResiduals(camera, frame, ApplyContourUpdate(pose, mesh.Centre(), step),
-                       mesh.Centre(), points, &r_plus, &unused, &valid_plus);
-      ContourResiduals(camera, frame, ApplyContourUpdate(pose, mesh.Centre(), -step),
-                       mesh.Centre(), points, &r_minus, &unused, &valid_minus);
+      ContourResiduals(camera, frame, ApplyContourUpdate(pose, mesh.Centre(), step), mesh.Centre(),
+                       points, &r_plus, &unused, &valid_plus);
+      ContourResiduals(camera, frame, ApplyContourUpdate(pose, mesh.Centre(), -step), mesh.Centre(),
+                       points, &r_minus, &unused, &valid_minus);
       for (size_t i = 0; i < points.size(); ++i) {
         if (!valid[i] || !valid_plus[i] || !valid_minus[i]) continue;
         const double numeric = (r_plus[i] - r_minus[i]) / (2.0 * h);
@@ -319,12 +317,11 @@ TEST(ContourRefinementTest, ConvergesFromPerturbedPosesOnCleanMasks) {
       "%.2f); centre error %% of distance median %.3f p90 %.3f max %.3f (start median %.2f); "
       "final rms px median %.3f; IoU median %.4f p10 %.4f; iterations median %.0f; time ms "
       "median %.2f max %.2f (this build)\n",
-      cases.size(), Percentile(rotation, 0.5), Percentile(rotation, 0.9),
-      Percentile(rotation, 1.0), Percentile(start_rotation, 0.5), 100 * Percentile(centre, 0.5),
-      100 * Percentile(centre, 0.9), 100 * Percentile(centre, 1.0),
-      100 * Percentile(start_centre, 0.5), Percentile(rms, 0.5), Percentile(iou, 0.5),
-      Percentile(iou, 0.1), Percentile(iterations, 0.5), Percentile(times_ms, 0.5),
-      Percentile(times_ms, 1.0));
+      cases.size(), Percentile(rotation, 0.5), Percentile(rotation, 0.9), Percentile(rotation, 1.0),
+      Percentile(start_rotation, 0.5), 100 * Percentile(centre, 0.5), 100 * Percentile(centre, 0.9),
+      100 * Percentile(centre, 1.0), 100 * Percentile(start_centre, 0.5), Percentile(rms, 0.5),
+      Percentile(iou, 0.5), Percentile(iou, 0.1), Percentile(iterations, 0.5),
+      Percentile(times_ms, 0.5), Percentile(times_ms, 1.0));
   EXPECT_LT(Percentile(rotation, 0.5), 1.0);
   EXPECT_LT(Percentile(rotation, 0.9), 2.5);
   EXPECT_LT(Percentile(centre, 0.5), 0.005);

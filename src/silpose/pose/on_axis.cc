@@ -31,6 +31,7 @@ bool DescribeOnAxis(std::span<const Eigen::Vector2d> outline_px, const PinholeCa
   Eigen::Matrix3d rotation;
   std::vector<Eigen::Vector2d> mapped(rays.size());
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  double signed_area = 0.0;
   constexpr int kIterations = 4;
   for (int iteration = 0; iteration < kIterations; ++iteration) {
     rotation = RotationFromOpticalAxisTo(axis);
@@ -40,7 +41,7 @@ bool DescribeOnAxis(std::span<const Eigen::Vector2d> outline_px, const PinholeCa
       if (!(v.z() > min_cos * v.norm())) return false;
       mapped[i] = focal * Eigen::Vector2d(v.x() / v.z(), v.y() / v.z());
     }
-    PolygonAreaCentroid(mapped, &centroid);
+    signed_area = PolygonAreaCentroid(mapped, &centroid);
     if (!centroid.allFinite()) return false;
     if (centroid.norm() < 1e-3) break;
     const Eigen::Vector3d moved =
@@ -51,8 +52,7 @@ bool DescribeOnAxis(std::span<const Eigen::Vector2d> outline_px, const PinholeCa
 
   PolarSignature& signature = result->signature;
   signature = PolarSignature{};
-  signature.radii =
-      StarConvexRadii(mapped, centroid, options.length, &signature.missed_directions);
+  signature.radii = StarConvexRadii(mapped, centroid, options.length, &signature.missed_directions);
   // Half a pixel outside the boundary pixels' centres, as for database silhouettes; in virtual
   // pixels it is half a pixel times the local scale, close to 1 near the centre.
   double sum = 0.0;
@@ -69,12 +69,13 @@ bool DescribeOnAxis(std::span<const Eigen::Vector2d> outline_px, const PinholeCa
   }
   signature.mean_radius_px = mean_radius;
   signature.centroid_px = centroid;
-  signature.area_px = std::abs(PolygonAreaCentroid(mapped, &centroid));
+  signature.area_px = std::abs(signed_area);
   signature.relative_std = std::sqrt(sum_squares / static_cast<double>(options.length));
   result->camera_from_virtual = rotation;
   result->focal_px = focal;
   result->apparent_radius = mean_radius / focal;
-  result->off_axis_deg = std::acos(std::min(1.0, axis.z())) * 180.0 / std::numbers::pi;
+  // The virtual axis is where `rotation` (the one the outline was mapped with) takes e_z.
+  result->off_axis_deg = std::acos(std::min(1.0, rotation(2, 2))) * 180.0 / std::numbers::pi;
   return true;
 }
 

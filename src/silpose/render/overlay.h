@@ -13,7 +13,8 @@
 
 namespace silpose {
 
-/// A model at a pose, as seen by a camera: `camera_from_object` is DESIGN.md's object_to_camera.
+/// A model at a pose, as seen by a camera: `camera_from_object` is the output files'
+/// object_to_camera.
 struct PosedModel {
   /// The model (not owned; must outlive the call). Required.
   const TriangleMesh* mesh = nullptr;

@@ -41,7 +41,6 @@ double PolygonAreaCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vect
   return 0.5 * twice_area;
 }
 
-
 std::string DescribeSilhouetteFlags(uint32_t flags) {
   static constexpr std::pair<uint32_t, const char*> kNames[] = {
       {kSilhouetteHasHoles, "holes"},

@@ -141,7 +141,7 @@ void Hand(const DegradationOptions& options, int frame, double size, cv::Mat* ma
   if (pixels.empty()) return;
   const Eigen::Vector2d direction = SideDirection(options, frame, kStreamHand, 90.0, 60.0, 15.0);
   const Eigen::Vector2d normal(-direction.y(), direction.x());
-  Eigen::Vector2d tip;
+  Eigen::Vector2d tip = Eigen::Vector2d::Zero();
   const Eigen::Vector2d origin(pixels.front().x, pixels.front().y);
   SupportPoint(pixels, direction, origin, 0.0, 1e300, &tip);
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> bars;  // (from, to), with a width

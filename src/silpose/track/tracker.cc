@@ -5,7 +5,6 @@
 #include <numbers>
 
 #include "silpose/geometry/view_frame.h"
-
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -96,6 +95,8 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
   result.view_dir_in_object = view_dir;
   result.roll_deg = roll_deg;
   tracked->refinement = std::move(refined);
+  // The refined orientation feeds the filter's velocity.
+  if (filter_) filter_->ObserveRotation(on_axis);
 }
 
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
@@ -197,13 +198,6 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
         result.status += "-no-pose";
       }
     }
-  }
-  if (filter_ && tracked.refinement) {
-    // The refined orientation of the on-axis camera feeds the filter's velocity.
-    const Eigen::Matrix3d on_axis =
-        RotationFromOpticalAxisTo(tracked.pose->centre_ray).transpose() *
-        tracked.pose->camera_from_object.rotation;
-    filter_->ObserveRotation(on_axis);
   }
   result.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

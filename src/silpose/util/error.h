@@ -1,5 +1,5 @@
 #pragma once
-// Error handling conventions (see STYLE.md, habit 5):
+// Error handling conventions:
 //  - programmer bugs: SILPOSE_ASSERT (aborts with file/line; active in all build types);
 //  - bad arguments or bad files at the public API: silpose::Error, whose message names the file or
 //    parameter and what is wrong; the command line prints it as one line and exits non-zero;
