@@ -26,8 +26,8 @@ void AddEvalBopCommand(CLI::App* eval);
 /// `silpose eval handheld` (eval_handheld_command.cc), added under `eval`.
 void AddEvalHandheldCommand(CLI::App* eval);
 
-/// The models an evaluation uses by default: ../shared/models (the reference set) when run from a
-/// checkout beside it, else the sample models.
+/// The models an evaluation uses by default: the reference model set (a shared/models folder beside
+/// the checkout) when run from a checkout beside it, else the sample models.
 std::vector<std::filesystem::path> DefaultEvalModels();
 
 /// What `silpose track` does, as options (also run by `silpose demo`): read INPUT, track it with

@@ -16,10 +16,10 @@
 //  - right object: the estimate's object is the flown model;
 //  - pose error: |d_est - d_true|, the Euclidean distance between the estimated view direction
 //    (the database view's unit direction, ViewSphere::directions) and the true one
-//    (TrajectoryFrame::view_dir_in_object), both in the model frame (DESIGN.md), in [0, 2]. Every
-//    frame counts, as in the paper: a frame whose estimate names a wrong object gets the distance
-//    between that object's estimated view direction and the true one (both unit vectors in their
-//    own model frames, so the distance is defined, if not meaningful); a frame without any
+//    (TrajectoryFrame::view_dir_in_object), both in the model frame (docs/conventions.md), in [0,
+//    2]. Every frame counts, as in the paper: a frame whose estimate names a wrong object gets the
+//    distance between that object's estimated view direction and the true one (both unit vectors in
+//    their own model frames, so the distance is defined, if not meaningful); a frame without any
 //    estimate (brute force on a frame without a usable silhouette) counts as wrong object with
 //    pose error 2, the largest possible;
 //  - time, milliseconds (steady clock).

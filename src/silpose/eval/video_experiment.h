@@ -1,5 +1,5 @@
 #pragma once
-// The real-video check of issue 4 on synthetic ground truth: for each of a few models, a colour
+// The real-video check on synthetic ground truth: for each of a few models, a colour
 // video of a static 640 x 480 camera (the object moving freely in front of a textured background,
 // camera noise) is written as an MJPEG AVI, read back, segmented by background subtraction,
 // tracked against the whole database and turned into 6-DOF poses, which are compared with the

@@ -139,7 +139,7 @@
 //     within 0.25: mean 4.1 frames, at most 16, against 11.8 and 39 without). The filter still
 //     decides: the guided particle must keep winning over the following frames to take over.
 //
-// Pose history, bounded memory (issue 3, item 2). Each particle's history is a chain of immutable
+// Pose history, bounded memory. Each particle's history is a chain of immutable
 // HistoryNode {frame, object, view, roll, score} -> parent, held by shared pointers. Resampling
 // copies the pointer, not the chain, so copies share their common ancestry and the tree of live
 // nodes coalesces. Resampling is stratified by object, so lineages merge within an object only:

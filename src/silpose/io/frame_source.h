@@ -1,5 +1,5 @@
 #pragma once
-// Sources of video frames for tracking (DESIGN.md, `silpose track INPUT`): a folder of images taken
+// Sources of video frames for tracking (docs/tracking.md, "Input"): a folder of images taken
 // in name order, a single image, an AVI file read by silpose itself (MJPEG, PNG or uncompressed
 // frames, see avi_file.h), and, only in a build with -DSILPOSE_WITH_VIDEOIO=ON, other video
 // containers (mp4, mkv, ...) and live cameras through OpenCV videoio.
@@ -109,7 +109,7 @@ class ImageFolderSource final : public FrameSource {
   size_t next_ = 0;
 };
 
-/// Opens INPUT as DESIGN.md's `track` describes:
+/// Opens INPUT as docs/tracking.md ("Input") describes:
 ///  - an existing folder: with masks/ or frames/ subfolders holding images, one of them (by
 ///    options.sequence_folder); otherwise its own images in name order (extensions as
 ///    ImageFilesIn);

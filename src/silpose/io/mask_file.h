@@ -1,5 +1,5 @@
 #pragma once
-// Mask images (DESIGN.md: 8-bit, non-zero = object).
+// Mask images (docs/conventions.md: 8-bit, non-zero = object).
 
 #include <filesystem>
 #include <opencv2/core.hpp>

@@ -9,7 +9,7 @@
 //  - view direction (the paper's pose error, section 5.1): the Euclidean distance between the
 //    estimated and true unit view directions (object centre -> camera centre, model frame), in
 //    [0, 2]. Of a pose it is taken as normalize(-R^T t - c), c = object centre; for an object on
-//    the optical axis that is the DESIGN.md view direction -R.row(2).
+//    the optical axis that is the view direction (docs/conventions.md) -R.row(2).
 
 #include <Eigen/Core>
 #include <span>

@@ -1,7 +1,8 @@
 #pragma once
-// The 6-DOF pose from a matched database view (DESIGN.md pipeline, "pose from (view, roll, scale,
-// centroid, camera)"). The paper estimates 4 DOF (view direction, roll, scale); the image position
-// of the silhouette and the camera intrinsics give the remaining two and turn scale into distance.
+// The 6-DOF pose from a matched database view (docs/tracking.md, "6-DOF pose": "pose from (view,
+// roll, scale, centroid, camera)"). The paper estimates 4 DOF (view direction, roll, scale); the
+// image position of the silhouette and the camera intrinsics give the remaining two and turn scale
+// into distance.
 //
 // Inputs: the database view v of model m (view_dir d_v, its silhouette's mean radius r_db and
 // centroid c_db in the database image, rendered by the database camera K_db = ViewCamera(render
@@ -97,8 +98,8 @@ struct PoseFromSilhouetteOptions {
 
 /// The pose and how it was found.
 struct SilhouettePose {
-  /// object_to_camera of DESIGN.md: x_in_camera = R x_in_object + t, OpenCV camera frame, t in
-  /// model units.
+  /// object_to_camera of the output files: x_in_camera = R x_in_object + t, OpenCV camera frame, t
+  /// in model units.
   Rigid3 camera_from_object;
   /// Distance from the camera centre to the object centre, model units.
   double distance = 0.0;

@@ -1,5 +1,5 @@
 #pragma once
-// Per-frame results and the files they go to (DESIGN.md, "File contracts"):
+// Per-frame results and the files they go to (docs/tracking.md, "Outputs"):
 //  - PosesCsvWriter: POSES.csv, one row per frame, header
 //      frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,
 //      effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz

@@ -1,7 +1,7 @@
 #pragma once
 // Segmentation front ends: each video frame -> a silhouette mask (CV_8UC1, 255 = object, 0 = not;
-// DESIGN.md "Masks") that shape/polar_signature.h turns into the descriptor (pipeline step
-// "frame -> segmentation" of DESIGN.md).
+// docs/conventions.md "Masks") that shape/polar_signature.h turns into the descriptor (pipeline
+// step "frame -> segmentation" of docs/tracking.md).
 //
 // Three kinds (SegmenterKind), all followed by the same clean-up:
 //   mask       the frames already are masks (a synth folder, another program's output): a pixel
@@ -102,9 +102,9 @@ struct SegmenterOptions {
   SegmenterKind kind = SegmenterKind::kMask;
 
   // --- mask ---
-  /// A mask pixel is object if any channel is > this (8-bit units, 0..254). 0 is DESIGN.md's rule
-  /// "non-zero = object"; for masks stored lossy (JPEG, video codecs), whose 0/255 come back as
-  /// e.g. 0..20 / 235..255, use 127.
+  /// A mask pixel is object if any channel is > this (8-bit units, 0..254). 0 is the mask rule of
+  /// docs/conventions.md "non-zero = object"; for masks stored lossy (JPEG, video codecs), whose
+  /// 0/255 come back as e.g. 0..20 / 235..255, use 127.
   int mask_threshold = 0;
 
   // --- bgsub ---

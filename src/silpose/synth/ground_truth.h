@@ -1,6 +1,6 @@
 #pragma once
-// groundtruth.csv of a synthetic sequence folder (DESIGN.md, "synth DIR"): one row per frame,
-// header first, with the columns
+// groundtruth.csv of a synthetic sequence folder (docs/conventions.md, "synth DIR"): one row per
+// frame, header first, with the columns
 //   frame,object,view_x,view_y,view_z,roll_deg,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,
 //   distance,degradation,centre_ray_x,centre_ray_y,centre_ray_z,off_axis_deg
 // `object` is the model's file stem; (view, roll) as in geometry/view_frame.h, of the virtual
@@ -34,7 +34,7 @@ struct GroundTruthFrame {
   Eigen::Vector3d view_dir_in_object = Eigen::Vector3d::UnitX();
   /// Camera roll, degrees, in (-180, 180].
   double roll_deg = 0.0;
-  /// The 6-DOF pose (DESIGN.md's object_to_camera).
+  /// The 6-DOF pose (object_to_camera, as in POSES.csv).
   Rigid3 camera_from_object;
   /// Camera distance from the object centre, object radii; NaN if the file has no such column.
   double distance_in_radii = 0.0;
@@ -58,16 +58,16 @@ void WriteGroundTruth(const std::filesystem::path& path,
 
 /// Reads groundtruth.csv. Columns are found by their header names, in any order; extra columns are
 /// ignored; `distance`, `degradation` and the centre ray columns are optional (files that only have
-/// DESIGN.md's columns read fine; centre_ray_x, _y, _z come together, off_axis_deg is checked
-/// against them when present). Accepts CRLF line ends and blank lines at the end. Throws
-/// silpose::Error naming the file, and the line where it applies, if the file is missing, a
-/// required column is missing, a row has the wrong number of fields, a number does not parse or is
-/// not finite, a frame number is negative or not larger than the previous row's, an object name is
-/// empty, a view direction is not of unit length, the centre ray is not a unit vector in front of
-/// the camera or disagrees with off_axis_deg (tolerance 1e-3 degrees), R is not a rotation, the
-/// view direction is not the virtual camera's optical axis reversed (-R^T u, which is -R.row(2) on
-/// the axis), or a degradation label does not parse (ParseDegradationLabel) (tolerances 1e-4, for
-/// files written with 6 decimals).
+/// The columns of docs/conventions.md (Synthetic sequences) read fine; centre_ray_x, _y, _z come
+/// together, off_axis_deg is checked against them when present). Accepts CRLF line ends and blank
+/// lines at the end. Throws silpose::Error naming the file, and the line where it applies, if the
+/// file is missing, a required column is missing, a row has the wrong number of fields, a number
+/// does not parse or is not finite, a frame number is negative or not larger than the previous
+/// row's, an object name is empty, a view direction is not of unit length, the centre ray is not a
+/// unit vector in front of the camera or disagrees with off_axis_deg (tolerance 1e-3 degrees), R is
+/// not a rotation, the view direction is not the virtual camera's optical axis reversed (-R^T u,
+/// which is -R.row(2) on the axis), or a degradation label does not parse (ParseDegradationLabel)
+/// (tolerances 1e-4, for files written with 6 decimals).
 std::vector<GroundTruthFrame> ReadGroundTruth(const std::filesystem::path& path);
 
 }  // namespace silpose

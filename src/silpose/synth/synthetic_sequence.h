@@ -1,7 +1,8 @@
 #pragma once
-// Synthetic silhouette sequences with exact ground truth (STYLE.md habit 8): a trajectory
-// (synth/trajectory.h) rendered frame by frame with a pinhole camera, degraded as asked
-// (synth/degradation.h), and written as a sequence folder (DESIGN.md, "synth DIR"):
+// Synthetic silhouette sequences with exact ground truth (the library's own test and evaluation
+// data): a trajectory (synth/trajectory.h) rendered frame by frame with a pinhole camera, degraded
+// as asked (synth/degradation.h), and written as a sequence folder (docs/conventions.md, "synth
+// DIR"):
 //   DIR/masks/000000.png, 000001.png, ...   CV_8UC1 PNG, 255 = object (after degradation)
 //   DIR/background.png                      CV_8UC3 PNG, the empty scene (with colour frames)
 //   DIR/frames/000000.png, ...              CV_8UC3 PNG, the colour frames (when asked for:

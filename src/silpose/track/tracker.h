@@ -1,5 +1,5 @@
 #pragma once
-// The online pipeline of one video stream (DESIGN.md, "online"): frame -> segmentation ->
+// The online pipeline of one video stream (docs/tracking.md): frame -> segmentation ->
 // polar signature -> particle filter over (object, view, roll) (or the brute-force matcher) ->
 // 6-DOF pose. This is what `silpose track` runs per frame; call it from your own code the same way:
 //
