@@ -32,6 +32,9 @@ packages=(
   libxxhash-dev        # mesh and file checksums (BSD-2)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-format clang-tidy
+  # sanitizer and fuzzing builds (presets asan, tsan, fuzz; Apache-2.0 with LLVM exception):
+  # clang 14 (clang++), its sanitizer runtimes and libFuzzer
+  clang libclang-rt-14-dev
 )
 [ "$with_fftw" = 1 ] && packages+=(libfftw3-dev)
 [ "$with_video" = 1 ] && packages+=(libopencv-videoio-dev libopencv-calib3d-dev)
