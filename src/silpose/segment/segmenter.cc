@@ -170,16 +170,36 @@ class BackgroundModel final : public ForegroundModel {
   }
 
   void Reset() override {
-    model_.release();
-    frames_learned_ = 0;
+    Forget();
     use_image_ = !background_image_.empty();
   }
 
   // Relearning after a permanent change uses the live frames: the image no longer shows the scene.
   void Relearn() {
-    model_.release();
-    frames_learned_ = 0;
+    Forget();
     use_image_ = false;
+  }
+
+  // True if the last Foreground() looked for an object while still learning (until-object): the
+  // caller then reports with AfterProbe whether it found one.
+  bool probing() const { return probing_; }
+  int frames_learned() const { return frames_learned_; }
+  bool frozen() const { return frozen_; }
+
+  // until-object: a frame without an object is learned; `object_confirm_frames` consecutive frames
+  // with one end the learning.
+  void AfterProbe(const cv::Mat& working, bool found_object) {
+    probing_ = false;
+    if (found_object) {
+      if (++found_run_ >= options_.object_confirm_frames) frozen_ = true;
+      return;
+    }
+    found_run_ = 0;
+    ++frames_learned_;
+    // OpenCV's automatic rate 1 / min(2 n, history), given explicitly: the probing calls count
+    // as frames in OpenCV's own counter.
+    const double rate = 1.0 / std::min(2 * frames_learned_, options_.learning_frames);
+    model_->apply(working, ignored_, rate);
   }
 
   SegmentationStatus Foreground(const cv::Mat& working, const cv::Size& full, cv::Mat* foreground,
@@ -195,15 +215,25 @@ class BackgroundModel final : public ForegroundModel {
     }
     size_ = working.size();
     type_ = working.type();
-    if (frames_learned_ < options_.learning_frames) {
+    probing_ = false;
+    const bool until_object = options_.background_learning == BackgroundLearning::kUntilObject;
+    const int first_frames = until_object ? options_.min_learning_frames : options_.learning_frames;
+    if (!frozen_ && frames_learned_ < first_frames) {
       // OpenCV's automatic rate 1 / min(2 n, history): a running average over the frames so far.
       model_->apply(working, *foreground, -1.0);
       ++frames_learned_;
       std::ostringstream text;
       text << "learning the background (frame " << frames_learned_ << " of "
-           << options_.learning_frames << ")";
+           << (until_object ? "at least " : "") << first_frames << ")";
       *message = text.str();
       return SegmentationStatus::kLearning;
+    }
+    if (!frozen_ && !until_object) frozen_ = true;
+    if (!frozen_) {
+      // Look for an object without learning the frame; AfterProbe learns it if there is none.
+      model_->apply(working, *foreground, DetectionRate());
+      probing_ = true;
+      return SegmentationStatus::kOk;
     }
     model_->apply(working, *foreground, Rate());
     return SegmentationStatus::kOk;
@@ -227,6 +257,18 @@ class BackgroundModel final : public ForegroundModel {
       return std::max(options_.learning_rate, 1e-7);
     }
     return options_.learning_rate;
+  }
+
+  double DetectionRate() const {
+    return options_.background_method == BackgroundMethod::kKnn ? 1e-7 : 0.0;
+  }
+
+  void Forget() {
+    model_.release();
+    frames_learned_ = 0;
+    found_run_ = 0;
+    frozen_ = false;
+    probing_ = false;
   }
 
   void LearnFromImage(const cv::Mat& working, const cv::Size& full) {
@@ -255,6 +297,7 @@ class BackgroundModel final : public ForegroundModel {
       model_->apply(noisy, ignored, -1.0);
     }
     frames_learned_ = options_.learning_frames;
+    frozen_ = true;
   }
 
   SegmenterOptions options_;
@@ -263,6 +306,10 @@ class BackgroundModel final : public ForegroundModel {
   cv::Ptr<cv::BackgroundSubtractor> model_;
   bool use_image_ = false;
   int frames_learned_ = 0;
+  int found_run_ = 0;     // until-object: consecutive frames with an object
+  bool frozen_ = false;   // learning is over
+  bool probing_ = false;  // see probing()
+  cv::Mat ignored_;
   cv::Size size_;
   int type_ = 0;
 };
@@ -307,7 +354,31 @@ class PipelineSegmenter final : public Segmenter {
     if (options_.kind != SegmenterKind::kMask) eight = ToGreyOrBgr(eight);
     const cv::Size full = frame.size();
     const cv::Mat working = Shrink(eight, factor_, &working_);
+    SegmentationResult result = SegmentWorking(working, full);
+    if (background_ != nullptr && background_->probing()) {
+      const bool found = result.ok();
+      background_->AfterProbe(working, found);
+      std::ostringstream text;
+      if (result.status == SegmentationStatus::kTooLarge) {
+        // A lighting change while the scene is empty: learned too, and reported as it is.
+        text << result.message << " (still learning the background)";
+        result.message = text.str();
+      } else if (!found) {
+        text << "learning the background until an object appears (" << background_->frames_learned()
+             << " frames learned; " << result.message << ")";
+        result.status = SegmentationStatus::kLearning;
+        result.message = text.str();
+      } else if (background_->frozen()) {
+        text << result.message << "; background learned from " << background_->frames_learned()
+             << " frames";
+        result.message = text.str();
+      }
+    }
+    return result;
+  }
 
+ private:
+  SegmentationResult SegmentWorking(const cv::Mat& working, const cv::Size& full) {
     SegmentationResult result;
     result.mask = cv::Mat::zeros(full, CV_8UC1);
     result.status = model_->Foreground(working, full, &raw_, &result.message);
@@ -336,7 +407,7 @@ class PipelineSegmenter final : public Segmenter {
            << Percent(options_.max_foreground_fraction)
            << " (max_foreground_fraction): lighting change or camera moved?";
       ++too_large_run_;
-      if (background_ != nullptr && options_.relearn_after_frames > 0 &&
+      if (background_ != nullptr && !background_->probing() && options_.relearn_after_frames > 0 &&
           too_large_run_ >= options_.relearn_after_frames) {
         background_->Relearn();
         too_large_run_ = 0;
@@ -356,7 +427,6 @@ class PipelineSegmenter final : public Segmenter {
     return result;
   }
 
- private:
   void ChooseComponent(const cv::Size& full, SegmentationResult* result) {
     // Labelling only the box around all foreground pixels: usually a small part of the frame.
     const cv::Rect region = cv::boundingRect(foreground_);
@@ -483,6 +553,22 @@ BackgroundMethod ParseBackgroundMethod(std::string_view name) {
   return ParseName(name, "background subtraction method", kChoices);
 }
 
+const char* ToString(BackgroundLearning learning) {
+  switch (learning) {
+    case BackgroundLearning::kUntilObject:
+      return "until-object";
+    case BackgroundLearning::kFrames:
+      return "frames";
+  }
+  return "?";
+}
+
+BackgroundLearning ParseBackgroundLearning(std::string_view name) {
+  static constexpr BackgroundLearning kChoices[] = {BackgroundLearning::kUntilObject,
+                                                    BackgroundLearning::kFrames};
+  return ParseName(name, "background learning", kChoices);
+}
+
 const char* ToString(ThresholdMethod method) {
   switch (method) {
     case ThresholdMethod::kOtsu:
@@ -562,6 +648,13 @@ bool SegmenterOptions::Check(std::string* error) const {
     message << "mask_threshold must be in [0, 254], got " << mask_threshold;
   } else if (learning_frames < 1 || learning_frames > 100000) {
     message << "learning_frames must be in [1, 100000], got " << learning_frames;
+  } else if (background_learning != BackgroundLearning::kUntilObject &&
+             background_learning != BackgroundLearning::kFrames) {
+    message << "background_learning: unknown value " << int(background_learning);
+  } else if (min_learning_frames < 1 || min_learning_frames > 100000) {
+    message << "min_learning_frames must be in [1, 100000], got " << min_learning_frames;
+  } else if (object_confirm_frames < 1 || object_confirm_frames > 1000) {
+    message << "object_confirm_frames must be in [1, 1000], got " << object_confirm_frames;
   } else if (!(learning_rate >= 0.0 && learning_rate < 1.0)) {
     message << "learning_rate must be in [0, 1), got " << learning_rate;
   } else if (!(background_image_noise >= 0.0 && background_image_noise <= 50.0)) {

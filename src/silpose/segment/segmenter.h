@@ -7,8 +7,9 @@
 //   mask       the frames already are masks (a synth folder, another program's output): a pixel
 //              is object if any channel exceeds `mask_threshold` (0 = DESIGN's "non-zero").
 //   bgsub      static camera: OpenCV's BackgroundSubtractorMOG2 or KNN (Zivkovic 2004 / 2006),
-//              learned from the first `learning_frames` frames (the object out of view or moving
-//              meanwhile) or from a background image, then frozen (see `learning_rate`).
+//              learned from a background image, or from the frames until an object appears
+//              (default; BackgroundLearning), or from the first `learning_frames` frames, then
+//              frozen (see `learning_rate`).
 //   threshold  controlled lighting: an HSV colour range, or Otsu's threshold on the grey image
 //              with the object darker or brighter than the background.
 // Clean-up: foreground -> morphological closing then opening (fills the holes of an object whose
@@ -68,6 +69,20 @@ const char* ToString(BackgroundMethod method);
 /// Inverse of ToString. Throws silpose::Error naming `name` and listing the choices.
 BackgroundMethod ParseBackgroundMethod(std::string_view name);
 
+/// How bgsub learns its background from the frames (without a background image).
+enum class BackgroundLearning : uint8_t {
+  /// "until-object": learns from every frame in which no object is found, after a first
+  /// `min_learning_frames`, and stops for good once an object has been found in
+  /// `object_confirm_frames` consecutive frames. Needs no knowledge of how long the scene is empty.
+  kUntilObject = 0,
+  /// "frames": learns from the first `learning_frames` frames, whatever they show.
+  kFrames = 1,
+};
+/// "until-object", "frames".
+const char* ToString(BackgroundLearning learning);
+/// Inverse of ToString. Throws silpose::Error naming `name` and listing the choices.
+BackgroundLearning ParseBackgroundLearning(std::string_view name);
+
 /// The rule of the threshold kind.
 enum class ThresholdMethod : uint8_t {
   kOtsu = 0,      ///< "otsu": Otsu's threshold on the grey image, side chosen by ObjectPolarity
@@ -109,15 +124,30 @@ struct SegmenterOptions {
 
   // --- bgsub ---
   BackgroundMethod background_method = BackgroundMethod::kMog2;
-  /// Frames the model learns from before it is used (status kLearning meanwhile), >= 1; also the
-  /// model's history. The scene should be empty meanwhile, or the object moving so that it covers
-  /// each pixel in well under 10 % of these frames: where it lingers it becomes background (an
-  /// object of 80 px moving 5 px per frame, covering pixels half the time, was then found with
-  /// IoU 0.37 by MOG2, 0.75 by KNN). 30 = one second at 30 frames/s. Measured on synthetic frames
-  /// with camera noise of 4 levels: KNN needs >= 5 frames (with 2 the whole frame is foreground),
-  /// false foreground on empty frames vanishes by 10 frames for both; 30 leaves a margin for what
-  /// real video adds (auto-exposure settling, codec noise) and costs one second. Ignored with a
-  /// background image (the model is ready at the first frame).
+  /// How the model is learned from the frames (ignored with a background image). Default
+  /// until-object: the object may appear at any frame after the first `min_learning_frames`.
+  BackgroundLearning background_learning = BackgroundLearning::kUntilObject;
+  /// until-object: frames learned before the model looks for an object (status kLearning), in
+  /// [1, 100000]. Measured on synthetic frames with camera noise of 4 levels, false foreground on
+  /// empty frames vanishes by 10 frames (MOG2 and KNN); an object in view earlier is learned as
+  /// background, as with the frames mode.
+  int min_learning_frames = 10;
+  /// until-object: learning stops for good once an object (a component of at least
+  /// min_area_fraction, foreground below max_foreground_fraction) has been found in this many
+  /// consecutive frames, in [1, 1000]. Frames with an object are never learned; an isolated false
+  /// detection (a passing shadow) only pauses learning. The frames with an object are segmented
+  /// (status kOk) meanwhile.
+  int object_confirm_frames = 3;
+  /// frames: frames the model learns from before it is used (status kLearning meanwhile), >= 1.
+  /// until-object: the window of the running average the model learns with. Also the model's
+  /// history. In the frames mode the scene should be empty meanwhile, or the object moving so that
+  /// it covers each pixel in well under 10 % of these frames: where it lingers it becomes
+  /// background (an object of 80 px moving 5 px per frame, covering pixels half the time, was then
+  /// found with IoU 0.37 by MOG2, 0.75 by KNN). 30 = one second at 30 frames/s. Measured on
+  /// synthetic frames with camera noise of 4 levels: KNN needs >= 5 frames (with 2 the whole frame
+  /// is foreground), false foreground on empty frames vanishes by 10 frames for both; 30 leaves a
+  /// margin for what real video adds (auto-exposure settling, codec noise) and costs one second.
+  /// Ignored with a background image (the model is ready at the first frame).
   int learning_frames = 30;
   /// Model update rate after learning, in [0, 1); 0 = frozen (default). A static camera watching an
   /// object that may stop moving must not let it fade into the background: with MOG2 a pixel
@@ -185,7 +215,7 @@ struct SegmenterOptions {
 
 enum class SegmentationStatus : uint8_t {
   kOk = 0,        ///< mask holds the chosen component
-  kLearning = 1,  ///< the background model is still learning; no mask
+  kLearning = 1,  ///< the background model is still learning (and found no object); no mask
   kEmpty = 2,     ///< no foreground, or no component of at least min_area_fraction
   kTooLarge = 3,  ///< more than max_foreground_fraction of the frame is foreground
 };

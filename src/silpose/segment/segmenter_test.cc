@@ -117,10 +117,13 @@ struct IouStats {
   double Mean() const { return frames == 0 ? 0.0 : mean / frames; }
 };
 
+// Learning from the first learning_frames frames (the tests of the model itself); the default,
+// until-object learning, has its own tests below.
 SegmenterOptions BackgroundOptions(BackgroundMethod method, int downscale) {
   SegmenterOptions options;
   options.kind = SegmenterKind::kBackground;
   options.background_method = method;
+  options.background_learning = BackgroundLearning::kFrames;
   options.downscale = downscale;
   return options;
 }
@@ -261,6 +264,39 @@ TEST_P(BackgroundTest, EmptySceneAfterLearningIsEmpty) {
   }
 }
 
+// The default learning: the object appears after an empty stretch whose length the segmenter is
+// not told (15 frames, half the frames mode's 30).
+TEST_P(BackgroundTest, UntilObjectLearnsTheEmptySceneHoweverLongItLasts) {
+  const BackgroundCase param = GetParam();
+  Scene scene;
+  SegmenterOptions options;
+  options.kind = SegmenterKind::kBackground;
+  options.background_method = param.method;
+  options.downscale = param.downscale;
+  ASSERT_EQ(options.background_learning, BackgroundLearning::kUntilObject);
+  auto segmenter = CreateSegmenter(options);
+  for (int t = 0; t < 15; ++t) {
+    const SegmentationResult result = segmenter->Segment(scene.Frame(t, /*with_object=*/false));
+    ASSERT_EQ(result.status, SegmentationStatus::kLearning) << t << ": " << result.message;
+    EXPECT_EQ(cv::countNonZero(result.mask), 0);
+  }
+  IouStats stats;
+  for (int t = 15; t < 55; ++t) {
+    const SegmentationResult result = segmenter->Segment(scene.Frame(t));
+    ASSERT_EQ(result.status, SegmentationStatus::kOk) << t << ": " << result.message;
+    stats.Add(IoU(result.mask, scene.TruthMask(t)));
+  }
+  std::printf(
+      "[ IoU      ] %s downscale %d, until-object after 15 empty frames: min %.3f mean "
+      "%.3f\n",
+      ToString(param.method), param.downscale, stats.min, stats.Mean());
+  EXPECT_GE(stats.min, kMinIou);
+  EXPECT_GE(stats.Mean(), kMeanIou);
+  // Learning is over (the object was found in 3 frames in a row): an empty scene is empty now.
+  const SegmentationResult empty = segmenter->Segment(scene.Frame(60, false));
+  EXPECT_EQ(empty.status, SegmentationStatus::kEmpty) << empty.message;
+}
+
 INSTANTIATE_TEST_SUITE_P(Methods, BackgroundTest,
                          testing::Values(BackgroundCase{BackgroundMethod::kMog2, 1, 0.85, 0.92},
                                          BackgroundCase{BackgroundMethod::kMog2, 2, 0.85, 0.90},
@@ -281,6 +317,47 @@ TEST(SegmenterTest, StillObjectStaysForegroundWithFrozenModel) {
     last_iou = IoU(result.mask, scene.TruthMask(10));
   }
   EXPECT_GE(last_iou, kMinIou);
+}
+
+TEST(SegmenterTest, FramesLearningAbsorbsAnObjectThatAppearsEarly) {
+  // Why until-object is the default: with 30 learning frames and the object still from frame 15
+  // on, the frames mode learns it as background; until-object finds it.
+  Scene scene;
+  SegmenterOptions frames = BackgroundOptions(BackgroundMethod::kMog2, 1);
+  SegmenterOptions until_object = frames;
+  until_object.background_learning = BackgroundLearning::kUntilObject;
+  auto absorbing = CreateSegmenter(frames);
+  auto finding = CreateSegmenter(until_object);
+  SegmentationResult absorbed, found;
+  for (int t = 0; t < 40; ++t) {
+    const cv::Mat frame = t < 15 ? scene.Frame(t, false) : scene.Frame(15);
+    absorbed = absorbing->Segment(frame);
+    found = finding->Segment(frame);
+  }
+  ASSERT_TRUE(found.ok()) << found.message;
+  EXPECT_GE(IoU(found.mask, scene.TruthMask(15)), kMinIou);
+  EXPECT_LT(absorbed.ok() ? IoU(absorbed.mask, scene.TruthMask(15)) : 0.0, 0.5) << absorbed.message;
+}
+
+TEST(SegmenterTest, UntilObjectIsolatedDetectionOnlyPausesLearning) {
+  Scene scene;
+  SegmenterOptions options = BackgroundOptions(BackgroundMethod::kMog2, 1);
+  options.background_learning = BackgroundLearning::kUntilObject;
+  options.min_learning_frames = 10;
+  options.object_confirm_frames = 3;
+  auto segmenter = CreateSegmenter(options);
+  for (int t = 0; t < 12; ++t) segmenter->Segment(scene.Frame(t, false));
+  // One frame with an object (segmented), then the empty scene again: still learning.
+  EXPECT_TRUE(segmenter->Segment(scene.Frame(12)).ok());
+  const SegmentationResult after = segmenter->Segment(scene.Frame(13, false));
+  EXPECT_EQ(after.status, SegmentationStatus::kLearning) << after.message;
+  EXPECT_NE(after.message.find("until an object appears"), std::string::npos) << after.message;
+  // Three frames in a row with the object end the learning.
+  for (int t = 14; t < 17; ++t) ASSERT_TRUE(segmenter->Segment(scene.Frame(t)).ok()) << t;
+  EXPECT_EQ(segmenter->Segment(scene.Frame(17, false)).status, SegmentationStatus::kEmpty);
+  // Reset learns again.
+  segmenter->Reset();
+  EXPECT_EQ(segmenter->Segment(scene.Frame(18, false)).status, SegmentationStatus::kLearning);
 }
 
 TEST(SegmenterTest, RelearnsAfterPersistentChange) {
@@ -549,6 +626,12 @@ TEST(SegmenterTest, BadOptionsNameTheOption) {
   options.learning_frames = 0;
   expect_error(options, "learning_frames");
   options = {};
+  options.min_learning_frames = 0;
+  expect_error(options, "min_learning_frames");
+  options = {};
+  options.object_confirm_frames = 0;
+  expect_error(options, "object_confirm_frames");
+  options = {};
   options.learning_rate = 1.0;
   expect_error(options, "learning_rate");
   options = {};
@@ -585,6 +668,9 @@ TEST(SegmenterTest, ParseNamesListTheChoices) {
   EXPECT_EQ(ParseSegmenterKind("mask"), SegmenterKind::kMask);
   EXPECT_EQ(ParseSegmenterKind("bgsub"), SegmenterKind::kBackground);
   EXPECT_EQ(ParseSegmenterKind("threshold"), SegmenterKind::kThreshold);
+  EXPECT_EQ(ParseBackgroundLearning("until-object"), BackgroundLearning::kUntilObject);
+  EXPECT_EQ(ParseBackgroundLearning("frames"), BackgroundLearning::kFrames);
+  EXPECT_THROW(ParseBackgroundLearning("first"), Error);
   EXPECT_EQ(ParseBackgroundMethod("knn"), BackgroundMethod::kKnn);
   EXPECT_EQ(ParseThresholdMethod("hsv"), ThresholdMethod::kHsvRange);
   EXPECT_EQ(ParseObjectPolarity("brighter"), ObjectPolarity::kBrighter);
