@@ -31,6 +31,12 @@ packages=(
   nlohmann-json3-dev   # JSON output (MIT)
   libxxhash-dev        # mesh and file checksums (BSD-2)
   libgtest-dev libgmock-dev libbenchmark-dev
+  # Python bindings (python/, for /usr/bin/python3): headers, pybind11 (BSD-3), numpy (BSD-3)
+  python3-dev pybind11-dev python3-numpy
+  # their tests: pytest (MIT); dask.distributed (BSD-3), whose dependencies are BSD, MIT or
+  # Apache-2.0 (dask, toolz, zict, partd, cloudpickle, psutil, tornado, msgpack, tblib, ...; only
+  # Debian's packaging scripts of some are GPL). Python runs them; nothing links them.
+  python3-pytest python3-distributed
   clang-format clang-tidy
   # sanitizer and fuzzing builds (presets asan, tsan, fuzz; Apache-2.0 with LLVM exception):
   # clang 14 (clang++), its sanitizer runtimes and libFuzzer
