@@ -176,6 +176,11 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
       "reading)%s\n",
       frames, measured, arguments.input.c_str(), total_ms / frames, decode_ms / frames,
       arguments.tracker.brute_force ? ", brute force" : "");
+  const TrackReport::StageTimes stages = report.MeanStageTimes();
+  std::printf(
+      "mean ms per stage (frames where it ran): segment %.3f, describe %.3f, match %.3f, "
+      "pose %.3f, refine %.3f\n",
+      stages.segment_ms, stages.describe_ms, stages.match_ms, stages.pose_ms, stages.refine_ms);
   if (report.has_truth()) {
     const int skip = std::min(10, frames - 1);
     const TrackAccuracy accuracy = report.Accuracy(skip);

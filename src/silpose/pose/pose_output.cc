@@ -67,7 +67,8 @@ nlohmann::json JsonNumber(double value) {
 
 const char* PosesCsvHeader() {
   return "frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,"
-         "effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz";
+         "effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,time_segment_ms,"
+         "time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms";
 }
 
 PosesCsvWriter::PosesCsvWriter(const std::filesystem::path& path) : path_(path) {
@@ -101,6 +102,9 @@ void PosesCsvWriter::Write(const FrameResult& result) {
     line += ',';
     if (result.camera_from_object) line += ExactNumber(result.camera_from_object->translation[i]);
   }
+  for (const double ms : {result.time_segment_ms, result.time_describe_ms, result.time_match_ms,
+                          result.time_pose_ms, result.time_refine_ms})
+    line += ',' + OptionalNumber(ms);
   WriteLine(path_, &stream_, line);
 }
 
@@ -129,6 +133,11 @@ void JsonLinesWriter::Write(const FrameResult& result) {
   }
   object["roll_deg"] = JsonNumber(result.roll_deg);
   object["time_ms"] = JsonNumber(result.time_ms);
+  object["time_segment_ms"] = JsonNumber(result.time_segment_ms);
+  object["time_describe_ms"] = JsonNumber(result.time_describe_ms);
+  object["time_match_ms"] = JsonNumber(result.time_match_ms);
+  object["time_pose_ms"] = JsonNumber(result.time_pose_ms);
+  object["time_refine_ms"] = JsonNumber(result.time_refine_ms);
   object["particles"] = result.particles > 0 ? nlohmann::json(result.particles) : nullptr;
   object["effective_particles"] = JsonNumber(result.effective_particles);
   if (result.camera_from_object) {

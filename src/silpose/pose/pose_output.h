@@ -2,7 +2,8 @@
 // Per-frame results and the files they go to (docs/tracking.md, "Outputs"):
 //  - PosesCsvWriter: POSES.csv, one row per frame, header
 //      frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,
-//      effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz
+//      effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,time_segment_ms,
+//      time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms
 //    with empty cells where a value is unknown (no object, no probability, no pose, ...);
 //  - JsonLinesWriter: one JSON object per frame and line, the same information (unknowns null);
 //  - BopCsvWriter: the BOP19 results format `scene_id,im_id,obj_id,score,R,t,time`, one row per
@@ -51,6 +52,15 @@ struct FrameResult {
   double roll_deg = std::numeric_limits<double>::quiet_NaN();
   /// Processing time of the frame, milliseconds.
   double time_ms = std::numeric_limits<double>::quiet_NaN();
+  /// Where that time went, milliseconds (NaN = the stage did not run): segmentation of the frame
+  /// into a silhouette mask; description (outline, polar signature, on-axis mapping); matching
+  /// (the particle filter's step, or the brute-force search); the 6-DOF pose from the matched
+  /// view; its contour refinement. Decoding the frame is in none of them.
+  double time_segment_ms = std::numeric_limits<double>::quiet_NaN();
+  double time_describe_ms = std::numeric_limits<double>::quiet_NaN();
+  double time_match_ms = std::numeric_limits<double>::quiet_NaN();
+  double time_pose_ms = std::numeric_limits<double>::quiet_NaN();
+  double time_refine_ms = std::numeric_limits<double>::quiet_NaN();
   /// Particles used and their effective number; 0 / NaN without a particle filter.
   int particles = 0;
   double effective_particles = std::numeric_limits<double>::quiet_NaN();
@@ -80,6 +90,7 @@ class PosesCsvWriter {
 
 /// Writes JSON Lines: per frame one object {"frame", "frame_name", "status", "object",
 /// "object_index", "score", "probability", "view_dir" [x, y, z], "roll_deg", "time_ms",
+/// "time_segment_ms", "time_describe_ms", "time_match_ms", "time_pose_ms", "time_refine_ms",
 /// "particles", "effective_particles", "pose" {"R": 3 rows of 3, "t": [x, y, z]}}, unknowns null.
 class JsonLinesWriter {
  public:

@@ -54,6 +54,10 @@ class PoseOutputTest : public ::testing::Test {
     frames[0].view_dir_in_object = Eigen::Vector3d(0.6, 0.0, 0.8);
     frames[0].roll_deg = -12.5;
     frames[0].time_ms = 2.5;
+    frames[0].time_segment_ms = 0.5;
+    frames[0].time_describe_ms = 0.25;
+    frames[0].time_match_ms = 1.25;
+    frames[0].time_pose_ms = 0.125;
     frames[0].particles = 600;
     frames[0].effective_particles = 123.4;
     frames[0].camera_from_object =
@@ -88,8 +92,9 @@ TEST_F(PoseOutputTest, PosesCsvHasTheHeaderAndOneRowPerFrame) {
   ASSERT_EQ(lines.size(), 4u);
   EXPECT_EQ(lines[0],
             "frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,"
-            "particles,effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz");
-  for (const std::string& line : lines) EXPECT_EQ(Split(line, ',').size(), 24u) << line;
+            "particles,effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,"
+            "time_segment_ms,time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms");
+  for (const std::string& line : lines) EXPECT_EQ(Split(line, ',').size(), 29u) << line;
   const std::vector<std::string> first = Split(lines[1], ',');
   EXPECT_EQ(first[0], "0");
   EXPECT_EQ(first[1], "bunny");
@@ -99,12 +104,17 @@ TEST_F(PoseOutputTest, PosesCsvHasTheHeaderAndOneRowPerFrame) {
   const Rigid3& pose = *Frames()[0].camera_from_object;
   for (int i = 0; i < 9; ++i) EXPECT_EQ(std::stod(first[12 + i]), pose.rotation(i / 3, i % 3));
   for (int i = 0; i < 3; ++i) EXPECT_EQ(std::stod(first[21 + i]), pose.translation[i]);
+  EXPECT_EQ(std::stod(first[24]), 0.5);  // stage times, in the order of the header
+  EXPECT_EQ(std::stod(first[25]), 0.25);
+  EXPECT_EQ(std::stod(first[26]), 1.25);
+  EXPECT_EQ(std::stod(first[27]), 0.125);
+  EXPECT_EQ(first[28], "");  // refinement did not run
   const std::vector<std::string> second = Split(lines[2], ',');
   EXPECT_EQ(second[1], "cow");
   EXPECT_EQ(second[3], "");   // probability unknown
   EXPECT_EQ(second[10], "");  // no particles
   for (int i = 12; i < 24; ++i) EXPECT_EQ(second[i], "");
-  EXPECT_EQ(lines[3], "2,,,,,,,,no-silhouette-empty,0.25,,,,,,,,,,,,,,");
+  EXPECT_EQ(lines[3], "2,,,,,,,,no-silhouette-empty,0.25,,,,,,,,,,,,,,,,,,,");
   EXPECT_THROW(writer.Write(Frames()[0]), Error);  // after Close
 }
 
@@ -134,6 +144,8 @@ TEST_F(PoseOutputTest, JsonLinesParseBack) {
   EXPECT_EQ(objects[0]["score"].get<double>(), 0.975);
   EXPECT_EQ(objects[0]["particles"], 600);
   EXPECT_EQ(objects[0]["view_dir"].size(), 3u);
+  EXPECT_EQ(objects[0]["time_match_ms"].get<double>(), 1.25);
+  EXPECT_TRUE(objects[0]["time_refine_ms"].is_null());
   const Rigid3& pose = *Frames()[0].camera_from_object;
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) {

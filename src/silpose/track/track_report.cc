@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace silpose {
 namespace {
@@ -81,6 +82,28 @@ TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   accuracy.rotation_values_deg = std::move(rotation_errors);
   accuracy.translation_values_relative = std::move(translation_errors);
   return accuracy;
+}
+
+TrackReport::StageTimes TrackReport::MeanStageTimes() const {
+  const auto mean = [this](double FrameResult::*field) {
+    double sum = 0.0;
+    int count = 0;
+    for (const Entry& entry : frames_) {
+      const double ms = entry.result.*field;
+      if (std::isfinite(ms)) {
+        sum += ms;
+        ++count;
+      }
+    }
+    return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
+  };
+  StageTimes times;
+  times.segment_ms = mean(&FrameResult::time_segment_ms);
+  times.describe_ms = mean(&FrameResult::time_describe_ms);
+  times.match_ms = mean(&FrameResult::time_match_ms);
+  times.pose_ms = mean(&FrameResult::time_pose_ms);
+  times.refine_ms = mean(&FrameResult::time_refine_ms);
+  return times;
 }
 
 std::vector<TrackReport::ObjectChange> TrackReport::ObjectChanges(int stable_frames) const {

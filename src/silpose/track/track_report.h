@@ -68,6 +68,17 @@ class TrackReport {
   bool has_truth() const { return truth_frames_ > 0; }
   TrackAccuracy Accuracy(int skip_frames = 0) const;
 
+  /// Mean time per stage over the frames where the stage ran (FrameResult::time_segment_ms ...
+  /// time_refine_ms), milliseconds; NaN for a stage that never ran.
+  struct StageTimes {
+    double segment_ms = 0.0;
+    double describe_ms = 0.0;
+    double match_ms = 0.0;
+    double pose_ms = 0.0;
+    double refine_ms = 0.0;
+  };
+  StageTimes MeanStageTimes() const;
+
   /// Where the true object changes (frames with a truth whose object differs from the previous
   /// truth's): the frame, and how many frames later the estimate names the new object and keeps
   /// naming it for `stable_frames` frames (-1: never, before the end or the next change).

@@ -61,6 +61,25 @@ TEST(TrackReport, AccuracyCountsObjectsAndErrors) {
   EXPECT_EQ(skipped.right_object, 2);
 }
 
+TEST(TrackReport, MeanStageTimesSkipStagesThatDidNotRun) {
+  TrackReport report({"cow"});
+  FrameResult first = Result(0, 0, "cow", Eigen::Vector3d::UnitZ(), std::nullopt);
+  first.time_segment_ms = 1.0;
+  first.time_describe_ms = 0.5;
+  first.time_match_ms = 2.0;
+  first.time_refine_ms = 3.0;
+  FrameResult second = Result(1, 0, "cow", Eigen::Vector3d::UnitZ(), std::nullopt);
+  second.time_segment_ms = 3.0;  // no silhouette: nothing after segmentation ran
+  report.Add(first);
+  report.Add(second);
+  const TrackReport::StageTimes times = report.MeanStageTimes();
+  EXPECT_DOUBLE_EQ(times.segment_ms, 2.0);
+  EXPECT_DOUBLE_EQ(times.describe_ms, 0.5);
+  EXPECT_DOUBLE_EQ(times.match_ms, 2.0);
+  EXPECT_TRUE(std::isnan(times.pose_ms));
+  EXPECT_DOUBLE_EQ(times.refine_ms, 3.0);
+}
+
 TEST(TrackReport, ObjectChangesAndTheirDelays) {
   TrackReport report({"cow", "hand"});
   const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();

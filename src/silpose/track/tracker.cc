@@ -106,11 +106,21 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
                camera_.width_px, "x", camera_.height_px,
                " (give the camera file of this video, or none for a default)");
   }
-  const auto start = std::chrono::steady_clock::now();
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  Clock::time_point stage_start = start;
+  // Milliseconds since the previous call (or the start), for the per-stage times.
+  const auto lap = [&stage_start] {
+    const Clock::time_point now = Clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - stage_start).count();
+    stage_start = now;
+    return ms;
+  };
   TrackedFrame tracked;
   FrameResult& result = tracked.result;
   result.frame = frame_;
   tracked.segmentation = segmenter_->Segment(frame);
+  result.time_segment_ms = lap();
   bool usable = false;
   if (tracked.segmentation.ok()) {
     tracked.silhouette =
@@ -140,12 +150,14 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
+  if (tracked.segmentation.ok()) result.time_describe_ms = lap();
 
   int view = -1;
   int shell = 0;
   bool roll_known = false;
   if (filter_) {
     tracked.estimate = usable ? filter_->Step(radii, apparent_radius) : filter_->Predict();
+    result.time_match_ms = lap();
     const FilterEstimate& estimate = *tracked.estimate;
     result.particles = estimate.num_particles;
     result.effective_particles = estimate.effective_particles;
@@ -166,6 +178,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   } else if (!filter_ && usable) {
     const std::vector<MatchCandidate> top =
         matcher_->Match(radii, {.top_k = 1, .apparent_radius = apparent_radius});
+    result.time_match_ms = lap();
     if (!top.empty()) {
       result.object = top.front().model;
       view = top.front().view;
@@ -186,12 +199,17 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       try {
         PoseFromSilhouetteOptions pose_options = options_.pose;
         pose_options.shell = shell;
+        lap();
         tracked.pose =
             EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
                                        tracked.silhouette.signature, camera_, pose_options);
         result.camera_from_object = tracked.pose->camera_from_object;
+        result.time_pose_ms = lap();
         const TriangleMesh& mesh = database_.models[static_cast<size_t>(result.object)].mesh;
-        if (options_.refine && !mesh.triangles.empty()) Refine(mesh, &tracked);
+        if (options_.refine && !mesh.triangles.empty()) {
+          Refine(mesh, &tracked);
+          result.time_refine_ms = lap();
+        }
       } catch (const Error&) {
         // A problem of this frame only (e.g. a centroid outside the lens model's valid range):
         // the frame keeps its object and view, without a pose.
@@ -199,8 +217,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
-  result.time_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   ++frame_;
   return tracked;
 }

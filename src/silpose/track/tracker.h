@@ -76,7 +76,8 @@ struct TrackerOptions {
 /// Everything the tracker found in one frame.
 struct TrackedFrame {
   /// The row of POSES.csv / JSON Lines / BOP (pose/pose_output.h). result.time_ms is the
-  /// processing time of Process() (segmentation to pose; decoding not included).
+  /// processing time of Process() (segmentation to pose; decoding not included), and
+  /// result.time_segment_ms ... time_refine_ms split it by stage.
   FrameResult result;
   /// The segmentation (its mask is all zero unless ok()).
   SegmentationResult segmentation;

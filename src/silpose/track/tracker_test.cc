@@ -130,6 +130,33 @@ TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
   EXPECT_TRUE(tracked.result.camera_from_object.has_value());
 }
 
+TEST(Tracker, StageTimesSplitTheFrameTime) {
+  for (const bool brute_force : {false, true}) {
+    TrackerOptions options;
+    options.brute_force = brute_force;
+    Tracker tracker(Database(), Sequence().camera(), options);
+    const TrackedFrame tracked = tracker.Process(Sequence().Generate(20).mask);
+    const FrameResult& r = tracked.result;
+    ASSERT_TRUE(r.camera_from_object.has_value());
+    ASSERT_TRUE(tracked.refinement.has_value());
+    double sum = 0.0;
+    for (const double ms : {r.time_segment_ms, r.time_describe_ms, r.time_match_ms, r.time_pose_ms,
+                            r.time_refine_ms}) {
+      EXPECT_TRUE(std::isfinite(ms) && ms >= 0.0) << ms;
+      sum += ms;
+    }
+    EXPECT_LE(sum, r.time_ms * (1.0 + 1e-9));
+    // Without a silhouette only segmentation (and the filter's prediction) runs.
+    const TrackedFrame blank =
+        tracker.Process(cv::Mat::zeros(Sequence().Generate(1).mask.size(), CV_8UC1));
+    EXPECT_TRUE(std::isfinite(blank.result.time_segment_ms));
+    EXPECT_TRUE(std::isnan(blank.result.time_describe_ms));
+    EXPECT_TRUE(std::isnan(blank.result.time_pose_ms));
+    EXPECT_TRUE(std::isnan(blank.result.time_refine_ms));
+    EXPECT_EQ(std::isfinite(blank.result.time_match_ms), !brute_force);
+  }
+}
+
 TEST(Tracker, FrameWithoutSilhouetteIsAPredictionWithoutPose) {
   Tracker tracker(Database(), Sequence().camera());
   const cv::Mat blank = cv::Mat::zeros(Sequence().Generate(1).mask.size(), CV_8UC1);
