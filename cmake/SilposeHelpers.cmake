@@ -4,8 +4,15 @@ function(silpose_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
                          -Wno-sign-conversion -Wno-missing-field-initializers)
   if(SILPOSE_SANITIZE)
-    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
-    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+    # SILPOSE_SANITIZERS: address,undefined (default) or thread. A sanitizer report fails the
+    # program (no recovery), so that a test reporting one fails.
+    target_compile_options(${target} PRIVATE -fsanitize=${SILPOSE_SANITIZERS} -fno-sanitize-recover=all
+                           -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=${SILPOSE_SANITIZERS})
+  endif()
+  if(SILPOSE_BUILD_FUZZERS)
+    # Coverage feedback for libFuzzer in every silpose target; fuzz/ links -fsanitize=fuzzer.
+    target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)
   endif()
   if(SILPOSE_CLANG_TIDY)
     set_target_properties(${target} PROPERTIES CXX_CLANG_TIDY clang-tidy)

@@ -1,0 +1,274 @@
+#!/usr/bin/env python3
+"""Writes the seed corpora fuzz/corpus/<target>/ (small files, < 2 MB in all) from the sample
+models and the same small shapes the unit tests use. Run from the repository root:
+
+    python3 fuzz/make_corpus.py build/release/src/silpose/cli/silpose
+
+It calls the silpose command (build-db, synth) for the database, AVI and image seeds. Every
+seed of a target whose first byte picks the file type (docs/fuzzing.md) starts with that byte.
+"""
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CORPUS = os.path.join(ROOT, "fuzz", "corpus")
+
+
+def put(target, name, data):
+    folder = os.path.join(CORPUS, target)
+    os.makedirs(folder, exist_ok=True)
+    if isinstance(data, str):
+        data = data.encode()
+    with open(os.path.join(folder, name), "wb") as f:
+        f.write(data)
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+# --- meshes: a unit cube in every format LoadMesh reads (selector byte = index in mesh_fuzzer.cc)
+CORNERS = [((1 if i & 1 else -1), (1 if i & 2 else -1), (1 if i & 4 else -1)) for i in range(8)]
+TRIANGLES = [(0, 4, 6), (0, 6, 2), (1, 3, 7), (1, 7, 5), (0, 1, 5), (0, 5, 4),
+             (2, 6, 7), (2, 7, 3), (0, 2, 3), (0, 3, 1), (4, 5, 7), (4, 7, 6)]
+
+
+def xyz(p):
+    return " ".join(str(float(c)) for c in p)
+
+
+def normal(t):
+    a, b, c = (CORNERS[i] for i in t)
+    u = [b[k] - a[k] for k in range(3)]
+    v = [c[k] - a[k] for k in range(3)]
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def meshes():
+    obj = "".join("v %s\n" % xyz(p) for p in CORNERS)
+    obj += "".join("f %d %d %d\n" % tuple(i + 1 for i in t) for t in TRIANGLES)
+    put("mesh", "cube.obj", b"\x00" + obj.encode())
+    header = ("ply\nformat %s 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 12\nproperty list uchar int vertex_indices\n"
+              "end_header\n")
+    ply = header % "ascii" + "".join(xyz(p) + "\n" for p in CORNERS)
+    ply += "".join("3 %d %d %d\n" % t for t in TRIANGLES)
+    put("mesh", "cube_ascii.ply", b"\x01" + ply.encode())
+    binary = (header % "binary_little_endian").encode()
+    binary += b"".join(struct.pack("<3f", *p) for p in CORNERS)
+    binary += b"".join(struct.pack("<B3i", 3, *t) for t in TRIANGLES)
+    put("mesh", "cube_binary.ply", b"\x01" + binary)
+    off = "OFF\n8 12 0\n" + "".join(xyz(p) + "\n" for p in CORNERS)
+    off += "".join("3 %d %d %d\n" % t for t in TRIANGLES)
+    put("mesh", "cube.off", b"\x02" + off.encode())
+    stl = "solid cube\n"
+    for t in TRIANGLES:
+        stl += "facet normal %s\nouter loop\n" % xyz(normal(t))
+        stl += "".join("vertex %s\n" % xyz(CORNERS[i]) for i in t)
+        stl += "endloop\nendfacet\n"
+    stl += "endsolid cube\n"
+    put("mesh", "cube_ascii.stl", b"\x03" + stl.encode())
+    bstl = b"\x00" * 80 + struct.pack("<I", len(TRIANGLES))
+    for t in TRIANGLES:
+        bstl += struct.pack("<3f", *normal(t))
+        bstl += b"".join(struct.pack("<3f", *CORNERS[i]) for i in t) + b"\x00\x00"
+    put("mesh", "cube_binary.stl", b"\x03" + bstl)
+    positions = b"".join(struct.pack("<3f", *p) for p in CORNERS)
+    indices = b"".join(struct.pack("<3H", *t) for t in TRIANGLES)
+    buffer = positions + indices
+    import base64
+    gltf = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "translation": [1, 2, 3]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{"byteLength": len(buffer),
+                     "uri": "data:application/octet-stream;base64,"
+                            + base64.b64encode(buffer).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(positions)},
+                        {"buffer": 0, "byteOffset": len(positions), "byteLength": len(indices)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+                       "min": [-1, -1, -1], "max": [1, 1, 1]},
+                      {"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"}],
+    }
+    put("mesh", "cube.gltf", b"\x04" + json.dumps(gltf).encode())
+    # GLB: the same document with the buffer as its binary chunk.
+    gltf["buffers"] = [{"byteLength": len(buffer)}]
+    doc = json.dumps(gltf).encode()
+    doc += b" " * (-len(doc) % 4)
+    body = struct.pack("<I4s", len(doc), b"JSON") + doc + struct.pack("<I4s", len(buffer), b"BIN\0")
+    body += buffer
+    put("mesh", "cube.glb", b"\x05" + struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+
+
+# --- camera files (selector: .yml .yaml .xml .json)
+def cameras(synth_folder):
+    yml = read(os.path.join(synth_folder, "camera.yml"))
+    put("camera_file", "camera.yml", b"\x00" + yml)
+    xml = """<?xml version="1.0"?>
+<opencv_storage>
+<image_width>64</image_width>
+<image_height>48</image_height>
+<camera_matrix type_id="opencv-matrix"><rows>3</rows><cols>3</cols><dt>d</dt>
+  <data>60. 0. 32. 0. 60. 24. 0. 0. 1.</data></camera_matrix>
+<distortion_coefficients type_id="opencv-matrix"><rows>5</rows><cols>1</cols><dt>d</dt>
+  <data>-0.1 0.01 0. 0. 0.</data></distortion_coefficients>
+</opencv_storage>
+"""
+    put("camera_file", "camera.xml", b"\x02" + xml.encode())
+    js = {"image_width": 64, "image_height": 48,
+          "camera_matrix": {"type_id": "opencv-matrix", "rows": 3, "cols": 3, "dt": "d",
+                            "data": [60.0, 0.0, 32.0, 0.0, 60.0, 24.0, 0.0, 0.0, 1.0]},
+          "distortion_coefficients": {"type_id": "opencv-matrix", "rows": 1, "cols": 8,
+                                      "dt": "d",
+                                      "data": [-0.1, 0.01, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]}}
+    put("camera_file", "camera.json", b"\x03" + json.dumps(js, indent=1).encode())
+
+
+# --- AVI: the MJPEG video of `silpose synth --video`, and uncompressed ones written here
+def chunk(fourcc, data):
+    return fourcc + struct.pack("<I", len(data)) + data + (b"\0" if len(data) % 2 else b"")
+
+
+def lst(kind, data):
+    return chunk(b"LIST", kind + data)
+
+
+def dib_avi(width, height, bits, frames):
+    row = (width * bits // 8 + 3) & ~3
+    palette = b"".join(struct.pack("<4B", g, g, g, 0) for g in range(256)) if bits == 8 else b""
+    avih = struct.pack("<14I", 40000, 0, 0, 0x10, len(frames), 0, 1, row * height, width, height,
+                       0, 0, 0, 0)
+    strh = struct.pack("<4s4sIHHIIIIIIIIhhhh", b"vids", b"DIB ", 0, 0, 0, 0, 1, 25, 0,
+                       len(frames), row * height, 0xFFFFFFFF, 0, 0, 0, width, height)
+    strf = struct.pack("<IiiHHIIiiII", 40, width, height, 1, bits, 0, row * height, 0, 0,
+                       256 if bits == 8 else 0, 0) + palette
+    hdrl = lst(b"hdrl", chunk(b"avih", avih) + lst(b"strl", chunk(b"strh", strh) +
+                                                chunk(b"strf", strf)))
+    movi = b""
+    index = b""
+    for frame in frames:
+        index += struct.pack("<4sIII", b"00db", 0x10, 4 + len(movi), len(frame))
+        movi += chunk(b"00db", frame)
+    body = b"AVI " + hdrl + lst(b"movi", movi) + chunk(b"idx1", index)
+    return b"RIFF" + struct.pack("<I", len(body)) + body
+
+
+def avis(synth_folder):
+    put("avi", "mjpeg.avi", read(os.path.join(synth_folder, "video.avi")))
+    w, h = 8, 6
+    grey = bytes((x * 30 + y * 10) & 255 for y in range(h) for x in range(w))
+    put("avi", "dib8.avi", dib_avi(w, h, 8, [grey, b"", grey]))
+    bgr = b"".join(bytes((x * 30, y * 40, 128)) for y in range(h) for x in range(w))
+    put("avi", "dib24.avi", dib_avi(w, h, 24, [bgr, bgr]))
+
+
+# --- images and masks (selector: .png .jpg .bmp .pgm .tif .webp; decoded by content)
+def images(synth_folder):
+    put("mask", "mask.png", b"\x00" + read(os.path.join(synth_folder, "masks", "000000.png")))
+    put("mask", "frame.png", b"\x00" + read(os.path.join(synth_folder, "frames", "000001.png")))
+    w, h = 16, 12
+    pgm = b"P5\n%d %d\n255\n" % (w, h) + bytes(
+        255 if 4 <= x < 12 and 3 <= y < 9 else 0 for y in range(h) for x in range(w))
+    put("mask", "mask.pgm", b"\x03" + pgm)
+    row = (w * 3 + 3) & ~3
+    pixels = b"".join(
+        b"".join(bytes((0, 0, 255) if (x - 8) ** 2 + (y - 6) ** 2 < 16 else (200, 200, 200))
+                 for x in range(w)) + b"\0" * (row - 3 * w) for y in range(h))
+    bmp = b"BM" + struct.pack("<IHHI", 54 + len(pixels), 0, 0, 54)
+    bmp += struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(pixels), 2835, 2835, 0, 0) + pixels
+    put("mask", "frame.bmp", b"\x02" + bmp)
+
+
+# --- arbitrary masks for match_fuzzer: width-1, zoom, then one bit per pixel
+def bitmap(width, zoom, inside):
+    height = width
+    bits = [1 if inside(x, y) else 0 for y in range(height) for x in range(width)]
+    data = bytearray((len(bits) + 7) // 8)
+    for i, b in enumerate(bits):
+        data[i // 8] |= b << (i % 8)
+    return bytes((width - 1, zoom)) + bytes(data)
+
+
+def masks():
+    put("match", "disc", bitmap(32, 1, lambda x, y: (x - 16) ** 2 + (y - 16) ** 2 < 144))
+    put("match", "square_zoom4", bitmap(16, 2, lambda x, y: 3 <= x < 12 and 4 <= y < 13))
+    put("match", "ell_zoom2", bitmap(24, 1, lambda x, y: (3 <= x < 8 and 2 <= y < 22) or
+                                     (3 <= x < 20 and 16 <= y < 22)))
+    put("match", "ring_border", bitmap(32, 1, lambda x, y:
+                                       36 < (x - 8) ** 2 + (y - 16) ** 2 < 150))
+
+
+# --- database: a tiny database of the anchor (raw file, and payload only: see the fuzzer)
+def databases(silpose, scratch):
+    path = os.path.join(scratch, "tiny.db")
+    subprocess.run([silpose, "build-db", os.path.join(ROOT, "data", "models", "anchor.obj"),
+                    "-o", path, "--views", "12", "--signature-length", "16", "--resolution", "64",
+                    "--distances", "3", "7.5", "--bins", "3", "--threads", "1"],
+                   check=True, stdout=subprocess.DEVNULL)
+    data = read(path)
+    put("database", "tiny.db", b"\x01" + data)
+    put("database", "tiny_payload", b"\x00" + data[20:-8])
+
+
+# --- BOP: models_info.json, scene_camera.json, scene_gt.json, scene_gt_info.json, NUL-separated
+def bop():
+    r = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    models_info = {"1": {"diameter": 100.0, "min_x": -50, "min_y": -40, "min_z": -30,
+                         "size_x": 100, "size_y": 80, "size_z": 60},
+                   "2": {"diameter": 80.0, "min_x": -40, "min_y": -40, "min_z": -20,
+                         "size_x": 80, "size_y": 80, "size_z": 40,
+                         "symmetries_discrete": [[-1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 1, 0,
+                                                  0, 0, 0, 1]]},
+                   "3": {"diameter": 60.0, "symmetries_continuous": [{"axis": [0, 0, 1],
+                                                                      "offset": [0, 0, 0]}]}}
+    camera = {str(i): {"cam_K": [500.0, 0, 320, 0, 500.0, 240, 0, 0, 1], "depth_scale": 0.1,
+                       "cam_R_w2c": r, "cam_t_w2c": [0, 0, 0]} for i in range(3)}
+    gt = {str(i): [{"obj_id": 1, "cam_R_m2c": r, "cam_t_m2c": [0, 0, 500 + 10 * i]},
+                   {"obj_id": 2, "cam_R_m2c": r, "cam_t_m2c": [50, 0, 600]},
+                   {"obj_id": 1, "cam_R_m2c": r, "cam_t_m2c": [-50, 0, 700]}] for i in range(3)}
+    info = {str(i): [{"visib_fract": 1.0}, {"visib_fract": 0.5}, {"visib_fract": 0.0}]
+            for i in range(3)}
+    parts = [json.dumps(x).encode() for x in (models_info, camera, gt)]
+    put("bop", "three_files", b"\0".join(parts))
+    put("bop", "four_files", b"\0".join(parts + [json.dumps(info).encode()]))
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit("usage: fuzz/make_corpus.py PATH/TO/silpose")
+    silpose = os.path.abspath(sys.argv[1])
+    shutil.rmtree(CORPUS, ignore_errors=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        synth = os.path.join(scratch, "seq")
+        camera = os.path.join(scratch, "camera.yml")
+        with open(camera, "w") as f:
+            f.write("%YAML:1.0\n---\nimage_width: 64\nimage_height: 48\n"
+                    "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                    "   data: [ 60., 0., 32., 0., 60., 24., 0., 0., 1. ]\n"
+                    "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n"
+                    "   dt: d\n   data: [ -0.1, 0.01, 0., 0., 0. ]\n")
+        subprocess.run([silpose, "synth", os.path.join(ROOT, "data", "models", "anchor.obj"),
+                        "-o", synth, "--frames", "3", "--camera", camera, "--colour", "--video"],
+                       check=True, stdout=subprocess.DEVNULL)
+        meshes()
+        cameras(synth)
+        avis(synth)
+        images(synth)
+        masks()
+        databases(silpose, scratch)
+        bop()
+    total = sum(os.path.getsize(os.path.join(d, f))
+                for d, _, files in os.walk(CORPUS) for f in files)
+    print("fuzz/corpus: %d bytes" % total)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,127 @@
+// What is shared between threads (docs/tracking.md, "As a library"): one database read by several
+// trackers at once, and one ViewSpectra (whose spectra are made on first use) searched by one
+// ViewMatcher per thread. Each must give what it gives alone. These tests are also run under
+// ThreadSanitizer (the 'tsan' preset, scripts/run-sanitizers.sh).
+
+#include <gtest/gtest.h>
+
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "silpose/database/database_builder.h"
+#include "silpose/match/view_matcher.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/tracker.h"
+
+namespace silpose {
+namespace {
+
+const std::filesystem::path kModels(SILPOSE_SAMPLE_MODELS_DIR);
+
+const ViewDatabase& Database() {
+  static const ViewDatabase* database = [] {
+    DatabaseBuildOptions options;
+    options.parameters.view_sphere.num_views = 200;
+    options.parameters.render.resolution_px = 128;
+    options.parameters.distances_in_radii = {3.0, 7.5};
+    options.num_threads = 2;
+    return new ViewDatabase(
+        BuildViewDatabase({kModels / "cow.obj", kModels / "hand.obj"}, options));
+  }();
+  return *database;
+}
+
+const SyntheticSequence& Sequence() {
+  static const SyntheticSequence* sequence = [] {
+    SequenceOptions options;
+    options.trajectory.kind = TrajectoryKind::kWalk;
+    options.trajectory.num_frames = 16;
+    options.trajectory.walk.seed = 3;
+    options.trajectory.object_switches = {{0, 0}, {8, 1}};
+    return new SyntheticSequence({LoadMesh(kModels / "cow.obj"), LoadMesh(kModels / "hand.obj")},
+                                 options);
+  }();
+  return *sequence;
+}
+
+// Per frame: status, object, roll, view and translation, printed exactly.
+std::vector<std::string> Track() {
+  Tracker tracker(Database(), Sequence().camera(), TrackerOptions());
+  std::vector<std::string> estimates;
+  for (int f = 0; f < Sequence().num_frames(); ++f) {
+    const FrameResult result = tracker.Process(Sequence().Generate(f).mask).result;
+    std::ostringstream line;
+    line.precision(17);
+    line << result.status << ' ' << result.object << ' ' << result.roll_deg;
+    if (result.view_dir_in_object) line << ' ' << result.view_dir_in_object->transpose();
+    if (result.camera_from_object)
+      line << ' ' << result.camera_from_object->translation.transpose();
+    estimates.push_back(line.str());
+  }
+  return estimates;
+}
+
+TEST(SharedBetweenThreads, TrackersOnOneDatabaseGiveWhatEachGivesAlone) {
+  (void)Sequence();
+  const std::vector<std::string> alone = Track();
+  ASSERT_EQ(alone.size(), 16u);
+  std::vector<std::vector<std::string>> together(2);
+  std::vector<std::thread> threads;
+  for (auto& result : together) threads.emplace_back([&result] { result = Track(); });
+  for (auto& thread : threads) thread.join();
+  for (const auto& result : together) EXPECT_EQ(result, alone);
+}
+
+// Every view of every model and shell, matched against the database: best candidate per query.
+std::vector<std::string> MatchAllViews(const ViewSpectra& spectra, int first, int step) {
+  ViewMatcher matcher(spectra);
+  const ViewDatabase& database = Database();
+  std::vector<std::string> best;
+  for (int m = 0; m < static_cast<int>(database.models.size()); ++m) {
+    for (int s = 0; s < database.num_shells(); ++s) {
+      for (int v = first; v < database.num_views(); v += step) {
+        if (database.models[m].Record(v, s).status != SignatureStatus::kOk) continue;
+        MatchOptions options;
+        options.top_k = 1;
+        options.apparent_radius = database.ApparentRadius(m, v, s);
+        const MatchCandidate c = matcher.Match(database.models[m].Signature(v, s), options).at(0);
+        std::ostringstream line;
+        line.precision(9);
+        line << m << ' ' << s << ' ' << v << ": " << c.model << ' ' << c.view << ' ' << c.shell
+             << ' ' << c.roll_deg << ' ' << c.score;
+        best.push_back(line.str());
+      }
+    }
+  }
+  return best;
+}
+
+TEST(SharedBetweenThreads, MatchersOnOneSpectraGiveWhatEachGivesAlone) {
+  std::vector<std::string> alone;
+  {
+    const ViewSpectra spectra(Database());
+    alone = MatchAllViews(spectra, 0, 1);
+  }
+  ASSERT_GT(alone.size(), 100u);
+  // A fresh ViewSpectra, so that the two threads make its spectra on first use concurrently; each
+  // takes every other view, then both check all of them.
+  const ViewSpectra spectra(Database());
+  std::vector<std::vector<std::string>> halves(2);
+  std::vector<std::vector<std::string>> wholes(2);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) {
+    threads.emplace_back([&, t] {
+      halves[t] = MatchAllViews(spectra, t, 2);
+      wholes[t] = MatchAllViews(spectra, 0, 1);
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  EXPECT_EQ(halves[0].size() + halves[1].size(), alone.size());
+  EXPECT_EQ(wholes[0], alone);
+  EXPECT_EQ(wholes[1], alone);
+}
+
+}  // namespace
+}  // namespace silpose
