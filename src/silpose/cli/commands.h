@@ -12,6 +12,7 @@
 namespace silpose::cli {
 
 void AddBuildDbCommand(CLI::App& app);
+void AddMergeDbCommand(CLI::App& app);
 void AddMatchCommand(CLI::App& app);
 void AddRenderCommand(CLI::App& app);
 void AddSynthCommand(CLI::App& app);

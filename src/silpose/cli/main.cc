@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
     return name + ": error: " + error.what() + " (see --help)\n";
   });
   silpose::cli::AddBuildDbCommand(app);
+  silpose::cli::AddMergeDbCommand(app);
   silpose::cli::AddMatchCommand(app);
   silpose::cli::AddRenderCommand(app);
   silpose::cli::AddSynthCommand(app);

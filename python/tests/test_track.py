@@ -1,0 +1,112 @@
+import numpy as np
+import pytest
+
+import silpose
+from conftest import cli_track, model, read_poses
+
+
+def rotation_angle_deg(a, b):
+    cosine = (np.trace(a[:3, :3].T @ b[:3, :3]) - 1.0) / 2.0
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+def test_python_tracker_gives_the_poses_of_track(cli_database, video, tmp_path):
+    cli_poses = read_poses(cli_track(cli_database, video, tmp_path / "cli.csv"))
+    database = silpose.ViewDatabase.read(cli_database)
+    camera = silpose.Camera.read(video / "camera.yml")
+    options = silpose.TrackerOptions(segment="bgsub", background=str(video / "background.png"))
+    tracker = silpose.Tracker(database, camera, options)
+    results = []
+    with silpose.PosesWriter(tmp_path / "py.csv") as writer:
+        for frame in silpose.FrameReader(str(video / "video.avi"), masks=False):
+            assert frame.shape == (480, 640, 3) and frame.dtype == np.uint8
+            result = tracker.process(frame)
+            writer.write(result)
+            results.append(result)
+    assert tracker.num_frames == len(cli_poses) == 12
+    # The same rows, to the last printed digit (time_ms aside).
+    assert read_poses(tmp_path / "py.csv") == cli_poses
+    with_pose = 0
+    for result, row in zip(results, cli_poses):
+        assert result.frame == int(row["frame"])
+        assert result.status == row["status"]
+        assert (result.object_name or "") == row["object"]
+        if result.camera_from_object is None:
+            assert row["r00"] == ""
+            continue
+        with_pose += 1
+        pose = result.camera_from_object
+        assert pose.shape == (4, 4)
+        np.testing.assert_array_equal(pose[3], [0, 0, 0, 1])
+        expected = np.array([[float(row[f"r{i}{j}"]) for j in range(3)] for i in range(3)])
+        np.testing.assert_allclose(pose[:3, :3], expected, atol=1e-5)
+        np.testing.assert_allclose(pose[:3, 3], [float(row[k]) for k in ("tx", "ty", "tz")],
+                                   rtol=1e-5, atol=1e-6)
+        assert result.score == pytest.approx(float(row["score"]), abs=1e-5)
+        assert result.probability == pytest.approx(float(row["probability"]), abs=1e-5)
+        assert result.roll_deg == pytest.approx(float(row["roll_deg"]), abs=1e-4)
+        np.testing.assert_allclose(result.view_dir,
+                                   [float(row[k]) for k in ("view_x", "view_y", "view_z")],
+                                   atol=1e-5)
+    assert with_pose >= 8
+    # The convenience loop does the same.
+    again = silpose.track_video(database, video / "video.avi", tmp_path / "again.csv",
+                                camera=video / "camera.yml",
+                                options=options)
+    assert len(again) == 12
+    assert read_poses(tmp_path / "again.csv") == cli_poses
+
+
+def test_tracker_on_masks_finds_the_object_and_pose(cli_database, tmp_path):
+    mesh = silpose.load_mesh(model("hand"))
+    sequence = silpose.SyntheticSequence([mesh], trajectory="orbit", frames=10)
+    database = silpose.ViewDatabase.read(cli_database)
+    tracker = silpose.Tracker(database, sequence.camera)
+    results = tracker.process_many([sequence.generate(i)["mask"] for i in range(10)])
+    assert [r.frame for r in results] == list(range(10))
+    assert all(r.object_name == "hand" for r in results[3:])
+    for index, result in enumerate(results[3:], start=3):
+        truth = sequence.truth(index)
+        assert rotation_angle_deg(result.camera_from_object, truth["camera_from_object"]) < 20
+        distance = np.linalg.norm(truth["camera_from_object"][:3, 3])
+        assert np.linalg.norm(result.camera_from_object[:3, 3] -
+                              truth["camera_from_object"][:3, 3]) < 0.15 * distance
+        assert result.mask.shape == (480, 640) and result.segmentation == "ok"
+        assert not result.mask.flags.owndata  # a view of the library's mask
+
+
+def test_a_frame_without_silhouette_has_no_pose(cli_database):
+    tracker = silpose.Tracker(silpose.ViewDatabase.read(cli_database), silpose.Camera.default(64, 48))
+    result = tracker.process(np.zeros((48, 64), np.uint8))
+    assert result.camera_from_object is None and result.object_name is None
+    assert result.score is None and result.view_dir is None and result.roll_deg is None
+    assert result.segmentation == "empty" and result.status.startswith("predicted")
+
+
+def test_tracker_keeps_its_database_alive(cli_database):
+    tracker = silpose.Tracker(silpose.ViewDatabase.read(cli_database), silpose.Camera.default(96, 96))
+    import gc
+    gc.collect()
+    mask = silpose.render_view(silpose.load_mesh(model("cow")), [1.0, 0.2, 0.3], resolution=96)
+    assert tracker.process(mask).object_name == "cow"
+    assert tracker.database.model_names == ["cow", "hand"]
+
+
+def test_bad_frames_raise_with_the_library_message(cli_database):
+    tracker = silpose.Tracker(silpose.ViewDatabase.read(cli_database), silpose.Camera.default(64, 48))
+    with pytest.raises(silpose.Error, match="64x48|64 x 48|size"):
+        tracker.process(np.zeros((50, 64), np.uint8))
+    with pytest.raises(silpose.Error, match="frame: numpy arrays of dtype float64 are not supported"):
+        tracker.process(np.zeros((48, 64)))
+    with pytest.raises(silpose.Error, match="frame: .* not contiguous"):
+        tracker.process(np.zeros((48, 128), np.uint8)[:, ::2])
+    with pytest.raises(silpose.Error, match="frame: expected an array of shape"):
+        tracker.process(np.zeros(10, np.uint8))
+    with pytest.raises(silpose.Error, match="TrackerOptions: unknown option 'segmnt'"):
+        silpose.TrackerOptions(segmnt="bgsub")
+    with pytest.raises(silpose.Error, match="'bgsubtraction'"):
+        silpose.TrackerOptions(segment="bgsubtraction")
+    with pytest.raises(silpose.Error, match="no-such-video.avi"):
+        silpose.FrameReader("no-such-video.avi")
+    with pytest.raises(silpose.Error, match="invalid camera"):
+        silpose.Camera(0, 48, 50, 50, 32, 24)
