@@ -44,10 +44,12 @@ struct TrackJob {
   std::string plots;
   std::string ground_truth;
   std::vector<std::string> models;
+  std::string masks_out;
   int max_frames = 0;
   // Segmentation.
   std::string segment = "mask";
   std::string background_method = "mog2";
+  std::string background_learning = "until-object";
   std::string threshold_method = "otsu";
   std::string object_polarity = "darker";
   std::string component = "largest";

@@ -10,6 +10,7 @@
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
+#include "silpose/io/mask_file.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/render/overlay.h"
@@ -153,6 +154,59 @@ void CreatePlotFolder(const TrackJob& arguments) {
   }
 }
 
+// --config FILE: the options the command line did not give, from a TOML or INI file (CLI11's
+// reader): `name = value` with track's long option names (and `input`), also under [track].
+void ApplyConfigFile(CLI::App* command, const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) {
+    ThrowError(path, ": config file not found (--config)");
+  }
+  std::vector<CLI::ConfigItem> items;
+  try {
+    items = CLI::ConfigTOML().from_file(path);
+  } catch (const CLI::Error& fault) {
+    ThrowError(path, ": cannot read the config file (--config): ", fault.what());
+  }
+  for (const CLI::ConfigItem& item : items) {
+    const bool in_track =
+        item.parents.empty() || (item.parents.size() == 1 && item.parents[0] == "track");
+    CLI::Option* option = nullptr;
+    if (in_track && item.name != "config" && item.name != "help") {
+      option = command->get_option_no_throw("--" + item.name);
+      if (option == nullptr && item.name == "input") option = command->get_option_no_throw("input");
+    }
+    if (option == nullptr) {
+      ThrowError(path, ": unknown option '", item.fullname(),
+                 "' (track's long option names without the dashes; see track --help)");
+    }
+    if (option->count() > 0) continue;  // the command line wins
+    std::vector<std::string> values = item.inputs;
+    try {
+      if (option->get_expected_min() == 0) {  // a flag: true / false
+        if (values.size() != 1) ThrowError("a flag takes true or false");
+        values = {option->get_flag_value(item.name, values[0])};
+      }
+      option->add_result(values);
+      option->run_callback();
+    } catch (const CLI::Error& fault) {
+      ThrowError(path, ": option '", item.name, "': ", fault.what());
+    } catch (const Error& fault) {
+      ThrowError(path, ": option '", item.name, "': ", fault.what());
+    }
+  }
+}
+
+// --masks-out: the folder for each frame's segmentation mask.
+void CreateMasksFolder(const TrackJob& arguments) {
+  if (arguments.masks_out.empty()) return;
+  std::error_code error;
+  std::filesystem::create_directories(arguments.masks_out, error);
+  if (error || !std::filesystem::is_directory(arguments.masks_out, error)) {
+    ThrowError(arguments.masks_out, ": cannot create the mask folder (--masks-out)",
+               error ? ": " + error.message() : std::string());
+  }
+}
+
 void WritePlots(const TrackJob& arguments, const TrackReport& report) {
   if (arguments.plots.empty() || report.num_frames() == 0) return;
   const std::filesystem::path folder = arguments.plots;
@@ -219,6 +273,7 @@ void RunTrackJob(const TrackJob& arguments) {
   SegmenterOptions& segment = options.segmentation;
   segment.kind = ParseSegmenterKind(arguments.segment);
   segment.background_method = ParseBackgroundMethod(arguments.background_method);
+  segment.background_learning = ParseBackgroundLearning(arguments.background_learning);
   segment.threshold_method = ParseThresholdMethod(arguments.threshold_method);
   segment.otsu_object = ParseObjectPolarity(arguments.object_polarity);
   segment.component = ParseSegmentComponent(arguments.component);
@@ -243,9 +298,33 @@ void RunTrackJob(const TrackJob& arguments) {
   refuse_unless(SegmenterKind::kBackground,
                 arguments.background_method != defaults.background_method, "--bg-method");
   refuse_unless(SegmenterKind::kBackground, !segment.background_image_path.empty(), "--background");
+  const SegmenterOptions& default_segment = defaults.tracker.segmentation;
   refuse_unless(SegmenterKind::kBackground,
-                segment.learning_frames != defaults.tracker.segmentation.learning_frames,
-                "--learning-frames");
+                segment.learning_frames != default_segment.learning_frames, "--learning-frames");
+  refuse_unless(SegmenterKind::kBackground,
+                arguments.background_learning != defaults.background_learning, "--bg-learning");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.min_learning_frames != default_segment.min_learning_frames,
+                "--min-learning-frames");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.object_confirm_frames != default_segment.object_confirm_frames,
+                "--confirm-frames");
+  refuse_unless(SegmenterKind::kBackground, segment.learning_rate != default_segment.learning_rate,
+                "--learning-rate");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.background_image_noise != default_segment.background_image_noise,
+                "--background-noise");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.detect_shadows != default_segment.detect_shadows, "--no-shadows");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.mog2_variance_threshold != default_segment.mog2_variance_threshold,
+                "--mog2-threshold");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.knn_distance2_threshold != default_segment.knn_distance2_threshold,
+                "--knn-threshold");
+  refuse_unless(SegmenterKind::kBackground,
+                segment.relearn_after_frames != default_segment.relearn_after_frames,
+                "--relearn-after");
   refuse_unless(SegmenterKind::kMask,
                 segment.mask_threshold != defaults.tracker.segmentation.mask_threshold,
                 "--mask-threshold");
@@ -301,6 +380,7 @@ void RunTrackJob(const TrackJob& arguments) {
     outputs.bop = std::make_unique<BopCsvWriter>(arguments.bop, bop);
   }
   CreatePlotFolder(arguments);
+  CreateMasksFolder(arguments);
   std::vector<std::optional<TriangleMesh>> meshes;
   if (!arguments.overlay.empty()) {
     const double fps = source->fps() > 0.0 ? source->fps() : 30.0;
@@ -336,6 +416,11 @@ void RunTrackJob(const TrackJob& arguments) {
             MakeTruthFrame(database, row->object, row->view_dir_in_object, row->camera_from_object);
       }
       report.Add(result, frame_truth);
+      if (!arguments.masks_out.empty()) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "%06d.png", index);
+        WriteMask(std::filesystem::path(arguments.masks_out) / name, tracked.segmentation.mask);
+      }
       if (outputs.overlay) {
         OverlayOptions overlay;
         overlay.frame_number = index;
@@ -381,8 +466,8 @@ void RunTrackJob(const TrackJob& arguments) {
   WritePlots(arguments, report);
   PrintSummary(arguments, report, measured, total_ms, decode_ms);
   std::printf("wrote %s", arguments.output.c_str());
-  for (const std::string* extra :
-       {&arguments.json, &arguments.bop, &arguments.overlay, &arguments.plots}) {
+  for (const std::string* extra : {&arguments.json, &arguments.bop, &arguments.overlay,
+                                   &arguments.plots, &arguments.masks_out}) {
     if (!extra->empty()) std::printf(", %s", extra->c_str());
   }
   std::printf("\n");
@@ -395,15 +480,16 @@ void AddTrackCommand(CLI::App& app) {
       "Identify the object and follow its 6-DOF pose through a video, an image folder or a camera "
       "with the particle filter over (object, view, roll) of the paper; writes one POSES.csv row "
       "per frame, and on request JSON Lines, BOP19 results, an overlay video and plots.");
-  command->add_option("-d,--database", arguments->database, "Database file from build-db")
-      ->required();
-  command
-      ->add_option("input", arguments->input,
-                   "Folder of images (name order; a synth folder's masks/ or, with --segment "
-                   "bgsub/threshold, frames/), a video file (.avi; .mp4 and others in a "
-                   "SILPOSE_WITH_VIDEOIO build), or a camera index (SILPOSE_WITH_VIDEOIO build)")
-      ->required();
-  command->add_option("-o,--output", arguments->output, "POSES.csv to write")->required();
+  // -d, input and -o are required, from the command line or the --config file (checked then).
+  command->add_option("-d,--database", arguments->database,
+                      "Database file from build-db (required)");
+  command->add_option(
+      "input", arguments->input,
+      "Folder of images (name order; a synth folder's masks/ or, with --segment "
+      "bgsub/threshold, frames/), a video file (.avi; .mp4 and others in a "
+      "SILPOSE_WITH_VIDEOIO build), or a camera index (SILPOSE_WITH_VIDEOIO build); "
+      "required");
+  command->add_option("-o,--output", arguments->output, "POSES.csv to write (required)");
   command->add_option("--camera", arguments->camera,
                       "OpenCV calibration YAML of the camera (silpose calibrate); default: "
                       "INPUT/camera.yml for a synth folder, else focal 0.82 x width (a warning)");
@@ -432,6 +518,10 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--ground-truth", arguments->ground_truth,
                       "groundtruth.csv to compare with (default: INPUT/groundtruth.csv of a synth "
                       "folder)");
+  command->add_option("--masks-out", arguments->masks_out,
+                      "Write each frame's segmentation mask to this folder as a PNG named like "
+                      "the frame (000012.png; the frame's index for videos), all black where the "
+                      "segmentation found nothing: to see the masks while tuning the options");
   command->add_option("--max-frames", arguments->max_frames, "Stop after N frames (0: all)");
   ParticleFilterOptions& filter = arguments->tracker.filter;
   command
@@ -467,9 +557,52 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--background", segment.background_image_path,
                       "bgsub: image of the empty scene (default: learn from the first frames)");
   command
+      ->add_option("--bg-learning", arguments->background_learning,
+                   "bgsub without --background: until-object (learn every frame in which no "
+                   "object is found, until one is found in --confirm-frames frames in a row) or "
+                   "frames (learn the first --learning-frames frames, whatever they show)")
+      ->capture_default_str();
+  command
       ->add_option("--learning-frames", segment.learning_frames,
-                   "bgsub: frames learned before tracking starts (the scene should be empty or "
-                   "the object moving)")
+                   "bgsub: frames learned with --bg-learning frames (the scene should be empty "
+                   "or the object moving); the running average's window with until-object")
+      ->capture_default_str();
+  command
+      ->add_option("--min-learning-frames", segment.min_learning_frames,
+                   "bgsub until-object: frames learned before looking for an object")
+      ->capture_default_str();
+  command
+      ->add_option("--confirm-frames", segment.object_confirm_frames,
+                   "bgsub until-object: learning stops once an object is found in this many "
+                   "frames in a row")
+      ->capture_default_str();
+  command
+      ->add_option("--learning-rate", segment.learning_rate,
+                   "bgsub: model update rate after learning, [0, 1); 0 = frozen (a still object "
+                   "must not fade into the background)")
+      ->capture_default_str();
+  command
+      ->add_option("--background-noise", segment.background_image_noise,
+                   "bgsub --background: camera noise (grey levels) added to the image of the "
+                   "empty scene while learning it")
+      ->capture_default_str();
+  command->add_flag("!--no-shadows", segment.detect_shadows,
+                    "bgsub: count shadows as object (by default darker pixels of the same "
+                    "chromaticity are background)");
+  command
+      ->add_option("--mog2-threshold", segment.mog2_variance_threshold,
+                   "bgsub mog2: squared Mahalanobis distance of a foreground pixel (16 = 4 "
+                   "sigma); lower finds objects of lower contrast")
+      ->capture_default_str();
+  command
+      ->add_option("--knn-threshold", segment.knn_distance2_threshold,
+                   "bgsub knn: squared distance of a foreground pixel, grey levels squared "
+                   "summed over channels (400 = 20 levels)")
+      ->capture_default_str();
+  command
+      ->add_option("--relearn-after", segment.relearn_after_frames,
+                   "bgsub: learn the background anew after this many frames in a row with too "
+                   "much foreground (0 = never)")
       ->capture_default_str();
   command->add_option("--threshold-method", arguments->threshold_method, "threshold: otsu or hsv")
       ->capture_default_str();
@@ -492,10 +625,29 @@ void AddTrackCommand(CLI::App& app) {
                    "Which blob is the object: largest, or nearest (to the last frame's)")
       ->capture_default_str();
   command
+      ->add_option("--min-area", segment.min_area_fraction,
+                   "Blobs smaller than this fraction of the frame are ignored, [0, 1)")
+      ->capture_default_str();
+  command
+      ->add_option("--max-foreground", segment.max_foreground_fraction,
+                   "A frame with more than this fraction of foreground fails (too-large: "
+                   "lighting change, camera moved), (0, 1]")
+      ->capture_default_str();
+  command
       ->add_option("--downscale", segment.downscale,
                    "bgsub/threshold: segment a frame shrunk by this factor (faster)")
       ->capture_default_str();
-  command->callback([arguments] { RunTrackJob(*arguments); });
+  auto config = std::make_shared<std::string>();
+  command->add_option("--config", *config,
+                      "Read options from this TOML or INI file: option = value, long names without "
+                      "the dashes (docs/segmentation.md); the command line wins");
+  command->callback([arguments, command, config] {
+    if (!config->empty()) ApplyConfigFile(command, *config);
+    if (arguments->database.empty()) ThrowError("--database is required (see --help)");
+    if (arguments->input.empty()) ThrowError("input is required (see --help)");
+    if (arguments->output.empty()) ThrowError("--output is required (see --help)");
+    RunTrackJob(*arguments);
+  });
 }
 
 }  // namespace silpose::cli
