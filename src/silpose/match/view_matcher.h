@@ -110,6 +110,8 @@ class ViewMatcher {
  public:
   /// Correlates with the options the spectra were made with.
   explicit ViewMatcher(const ViewSpectra& spectra);
+  /// The matcher keeps a reference to the spectra: a temporary would dangle.
+  explicit ViewMatcher(ViewSpectra&&) = delete;
 
   /// Best candidates for a signature of the database's length (PolarSignature::radii), best first.
   /// Throws silpose::Error for a signature of another length or invalid options.
