@@ -1,3 +1,6 @@
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -5,6 +8,7 @@
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/util/error.h"
+#include "silpose/util/output_file.h"
 #include "silpose/util/progress.h"
 
 namespace silpose::cli {
@@ -14,7 +18,61 @@ struct BuildDbArguments {
   std::vector<std::string> models;
   std::string output;
   DatabaseBuildOptions options;
+  bool force = false;
 };
+
+// Beyond these a database is refused unless --force (docs/limits.md): a bigger file is slow to
+// load, and every match and track run holds it and its spectra in memory.
+constexpr double kMaxFileBytes = 2e9;
+constexpr double kMaxMatchMemoryBytes = 4e9;
+
+double PhysicalMemoryBytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES);
+  const long page_size = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page_size > 0 ? static_cast<double>(pages) * static_cast<double>(page_size)
+                                    : 0.0;
+}
+
+// Prints what the database will cost and refuses it, before building, if it is beyond the bounds.
+void CheckDatabaseSize(const BuildDbArguments& arguments) {
+  std::string problem;
+  if (!arguments.options.Check(&problem)) ThrowError("invalid database options: ", problem);
+  double mesh_bytes = 0.0;
+  for (const std::string& model : arguments.models) {
+    std::error_code error;
+    const auto size = std::filesystem::file_size(model, error);
+    if (!error) mesh_bytes += static_cast<double>(size);
+  }
+  const DatabaseParameters& parameters = arguments.options.parameters;
+  const int threads = arguments.options.num_threads > 0
+                          ? arguments.options.num_threads
+                          : static_cast<int>(std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN)));
+  const DatabaseSizeEstimate estimate = EstimateDatabaseSize(
+      parameters, static_cast<int>(arguments.models.size()), mesh_bytes, threads);
+  auto bytes = [](double value) { return FormatBytes(static_cast<uintmax_t>(value)); };
+  std::printf(
+      "estimate: %zu models x %d views x %d shells, signatures of %d: a file of about %s, about "
+      "%s of memory to build, about %s for match and track\n",
+      arguments.models.size(), parameters.view_sphere.num_views, parameters.num_shells(),
+      parameters.signature.length, bytes(estimate.file_bytes).c_str(),
+      bytes(estimate.build_memory_bytes).c_str(), bytes(estimate.match_memory_bytes).c_str());
+  std::fflush(stdout);
+  if (!arguments.force &&
+      (estimate.file_bytes > kMaxFileBytes || estimate.match_memory_bytes > kMaxMatchMemoryBytes)) {
+    ThrowError(
+        "the database would be about ", bytes(estimate.file_bytes), " (matching needs about ",
+        bytes(estimate.match_memory_bytes), " of memory), beyond the limits of ",
+        bytes(kMaxFileBytes), " and ", bytes(kMaxMatchMemoryBytes), ": use fewer --views (",
+        parameters.view_sphere.num_views, "), a shorter --signature-length (",
+        parameters.signature.length, ") or fewer --distances, or pass --force to build it anyway");
+  }
+  const double memory = PhysicalMemoryBytes();
+  if (memory > 0.0 && estimate.build_memory_bytes > memory) {
+    ThrowError("the database needs about ", bytes(estimate.build_memory_bytes),
+               " of memory to build but this machine has ", bytes(memory),
+               ": use fewer --views, a shorter --signature-length or fewer --distances");
+  }
+}
 
 void PrintDatabaseSummary(const ViewDatabase& database) {
   std::printf("%d views x %d distance shells (", database.num_views(), database.num_shells());
@@ -45,6 +103,12 @@ void PrintDatabaseSummary(const ViewDatabase& database) {
 }
 
 void RunBuildDb(const BuildDbArguments& arguments) {
+  // The output first: a path that cannot be written, or that another silpose process is writing,
+  // is refused before minutes of rendering.
+  CheckReplaceable(arguments.output);
+  CheckOutputPath(arguments.output, "-o");
+  const OutputLock lock(arguments.output);
+  CheckDatabaseSize(arguments);
   std::vector<std::filesystem::path> paths(arguments.models.begin(), arguments.models.end());
   DatabaseBuildOptions options = arguments.options;
   options.show_progress = true;
@@ -107,6 +171,9 @@ void AddBuildDbCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--threads", arguments->options.num_threads, "Worker threads (0 = all cores)")
       ->capture_default_str();
+  command->add_flag("--force", arguments->force,
+                    "Build even if the estimated file is larger than 2 GB or match and track would "
+                    "need more than 4 GB of memory (never beyond the machine's memory)");
   command->callback([arguments] { RunBuildDb(*arguments); });
 }
 

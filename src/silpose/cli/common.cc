@@ -78,7 +78,9 @@ std::vector<double> ParseTriple(const std::string& text, const std::string& what
 
 std::string FormatBytes(uintmax_t bytes) {
   char text[32];
-  if (bytes >= 1000 * 1000) {
+  if (bytes >= 1000ull * 1000 * 1000) {
+    std::snprintf(text, sizeof(text), "%.1f GB", static_cast<double>(bytes) / 1e9);
+  } else if (bytes >= 1000 * 1000) {
     std::snprintf(text, sizeof(text), "%.1f MB", static_cast<double>(bytes) / 1e6);
   } else if (bytes >= 1000) {
     std::snprintf(text, sizeof(text), "%.1f kB", static_cast<double>(bytes) / 1e3);

@@ -4,6 +4,7 @@
 #include <memory>
 #include <numbers>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/io/video_writer.h"
@@ -131,7 +132,8 @@ void AddDemoCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--views", arguments->views, "Viewpoints per model")->capture_default_str();
   command->add_option("--seed", arguments->seed, "Seed of the motion, noise and particle filter")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(SeedNumber());
   command->add_option("--threads", arguments->threads, "Worker threads for building (0 = all)")
       ->capture_default_str();
   command->callback([arguments] { RunDemo(*arguments); });

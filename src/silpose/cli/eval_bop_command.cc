@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/eval/bop_dataset.h"
 #include "silpose/eval/bop_experiment.h"
@@ -213,7 +214,8 @@ void AddEvalBopCommand(CLI::App* eval) {
                     "Match every frame on its own instead of the particle filter");
   command->add_option("--particles", arguments->options.particles_per_object,
                       "Particles per object (default: the tracker's)");
-  command->add_option("--seed", arguments->options.seed, "Filter seed")->capture_default_str();
+  command->add_option("--seed", arguments->options.seed, "Filter seed")->capture_default_str()
+      ->check(SeedNumber());
   command->add_option("--max-frames", arguments->max_frames,
                       "At most this many frames per instance (default all; 30 with --quick)");
   command->add_option("--max-instances", arguments->max_instances,

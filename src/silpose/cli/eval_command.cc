@@ -4,6 +4,7 @@
 #include <memory>
 #include <sstream>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/eval/evaluation_database.h"
 #include "silpose/eval/self_match.h"
@@ -346,7 +347,8 @@ void AddEvalCommand(CLI::App& app) {
   self_match->add_option("--stride", arguments->options.view_stride, "Test every n-th view only")
       ->capture_default_str();
   self_match->add_option("--seed", arguments->options.seed, "Seed of the random rolls")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(SeedNumber());
   self_match->add_option("--threads", arguments->options.num_threads, "Worker threads (0 = all)")
       ->capture_default_str();
   self_match->add_option("--csv", arguments->csv, "Write the per-model table as CSV");

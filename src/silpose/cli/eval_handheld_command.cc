@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/eval/evaluation_database.h"
 #include "silpose/eval/handheld_experiment.h"
@@ -347,7 +348,8 @@ void AddEvalHandheldCommand(CLI::App* eval) {
   command->add_option("--views", arguments->views, "Views per model when building")
       ->capture_default_str();
   command->add_option("--seed", arguments->seed, "First seed of the sequences")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(SeedNumber());
   command->add_option("--skip", arguments->skip, "Frames left out at the start of each sequence")
       ->capture_default_str();
   command->add_flag("--ablation", arguments->ablation,

@@ -6,6 +6,7 @@
 #include <memory>
 #include <numbers>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/eval/evaluation_database.h"
 #include "silpose/eval/video_experiment.h"
@@ -114,7 +115,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
       ->add_option("--camera-noise", arguments->options.camera_noise, "Camera noise, grey levels")
       ->capture_default_str();
   command->add_option("--bg-method", arguments->bg_method, "mog2 or knn")->capture_default_str();
-  command->add_option("--seed", arguments->options.seed, "Seed")->capture_default_str();
+  command->add_option("--seed", arguments->options.seed, "Seed")->capture_default_str()
+      ->check(SeedNumber());
   command->add_option("--views", arguments->views,
                       "Views per model when building (default 1000; 300 --quick)");
   command->add_option("--threads", arguments->threads, "Threads for building (0 = all)")

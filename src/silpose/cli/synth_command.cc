@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/video_writer.h"
@@ -551,7 +552,8 @@ void AddSynthCommand(CLI::App& app) {
       ->add_option("--seed", arguments->seed,
                    "Seed of the walk and handheld trajectories, the degradations and the colour "
                    "frames' texture and noise")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(SeedNumber());
   command->add_option("--threads", arguments->threads, "Worker threads (0 = all cores)")
       ->capture_default_str();
   command->add_flag("--overwrite", arguments->overwrite,

@@ -7,6 +7,7 @@
 #include <optional>
 #include <sstream>
 
+#include "silpose/cli/cli_checks.h"
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
@@ -128,6 +129,24 @@ std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackJob& arguments
     }
   }
   return meshes;
+}
+
+// Background subtraction keeps a model of every pixel (MOG2: about 70 bytes each): on frames of
+// more than kMaxBackgroundPixels it runs on the frame shrunk by the smallest --downscale factor
+// that brings it under (docs/limits.md), and says so.
+constexpr double kMaxBackgroundPixels = 9e6;
+
+void LimitBackgroundSubtraction(cv::Size frame_size, SegmenterOptions* segment) {
+  if (segment->kind != SegmenterKind::kBackground) return;
+  const double pixels = static_cast<double>(frame_size.width) * frame_size.height;
+  int factor = segment->downscale;
+  while (pixels / (static_cast<double>(factor) * factor) > kMaxBackgroundPixels) ++factor;
+  if (factor == segment->downscale) return;
+  std::fprintf(stderr,
+               "note: background subtraction on %dx%d frames runs at --downscale %d (at most %.0f "
+               "million pixels are modelled)\n",
+               frame_size.width, frame_size.height, factor, kMaxBackgroundPixels / 1e6);
+  segment->downscale = factor;
 }
 
 struct Outputs {
@@ -282,6 +301,7 @@ void RunTrackJob(const TrackJob& arguments) {
     segment.threshold_method = ThresholdMethod::kHsvRange;
   }
   if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
+  FitParticleBounds(&options.filter);
   // Options of another segmentation kind would be ignored: refuse them.
   const TrackJob defaults;
   auto refuse_unless = [&](SegmenterKind kind, bool given, const char* option) {
@@ -347,8 +367,15 @@ void RunTrackJob(const TrackJob& arguments) {
   FrameSourceOptions source_options;
   source_options.sequence_folder =
       segment.kind == SegmenterKind::kMask ? SequenceFolder::kMasks : SequenceFolder::kFrames;
+  if (segment.kind == SegmenterKind::kMask) {
+    // Masks are decoded by the one rule `match` uses too (io/mask_file.h): 16-bit values, alpha.
+    source_options.color = FrameColor::kMask;
+    source_options.mask_threshold = segment.mask_threshold;
+  }
   std::unique_ptr<FrameSource> source = OpenFrameSource(arguments.input, source_options);
   const ViewDatabase database = ViewDatabase::Read(arguments.database);
+  if (!options.brute_force)
+    CheckTotalParticles(options.filter, database.models.size(), arguments.database);
 
   // The first frame fixes the size (cameras and unindexed videos do not say it before).
   cv::Mat frame;
@@ -358,6 +385,7 @@ void RunTrackJob(const TrackJob& arguments) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start)
           .count();
   const PinholeCamera camera = ChooseCamera(arguments, frame.size());
+  LimitBackgroundSubtraction(frame.size(), &options.segmentation);
   Tracker tracker(database, camera, options);
 
   const std::vector<GroundTruthFrame> truth = ChooseGroundTruth(arguments);
@@ -365,6 +393,12 @@ void RunTrackJob(const TrackJob& arguments) {
   for (const ModelViews& model : database.models) names.push_back(model.name);
   TrackReport report(names);
 
+  // Every output is checked and locked before the first is created; if one cannot be opened,
+  // those created are removed again.
+  OutputGuard guard({{arguments.output, "-o"},
+                     {arguments.json, "--json"},
+                     {arguments.bop, "--bop"},
+                     {arguments.overlay, "--overlay"}});
   Outputs outputs;
   outputs.csv = std::make_unique<PosesCsvWriter>(arguments.output);
   if (!arguments.json.empty()) outputs.json = std::make_unique<JsonLinesWriter>(arguments.json);
@@ -388,10 +422,12 @@ void RunTrackJob(const TrackJob& arguments) {
     meshes = OverlayMeshes(arguments, database);
   }
 
+  guard.Opened();
   std::optional<int> total = source->num_frames();
   if (total && arguments.max_frames > 0) total = std::min(*total, arguments.max_frames);
   ProgressBar progress("track", total.value_or(0));
   int measured = 0;
+  int rows_written = 0;  // POSES.csv rows on disk
   double total_ms = 0.0;
   try {
     do {
@@ -401,10 +437,12 @@ void RunTrackJob(const TrackJob& arguments) {
       // Ground truth rows are matched by the image's number when it has one, else by the index.
       const int index =
           tracked.result.image_id >= 0 ? tracked.result.image_id : source->frame_index();
+      DropNonFinitePose(&tracked.result);
       const FrameResult& result = tracked.result;
       total_ms += result.time_ms;
       measured += tracked.silhouette.ok();
       outputs.csv->Write(result);
+      ++rows_written;
       if (outputs.json) outputs.json->Write(result);
       if (outputs.bop) outputs.bop->Write(result);
       std::optional<TruthFrame> frame_truth;
@@ -455,11 +493,17 @@ void RunTrackJob(const TrackJob& arguments) {
       outputs.Close();
       WritePlots(arguments, report);
     } catch (const Error& second) {
-      std::fprintf(stderr, "warning: %s\n", second.what());
+      // The file that failed usually fails again when closed: one message about it is enough.
+      const std::string first_text = fault.what();
+      const std::string second_text = second.what();
+      if (second_text.substr(0, second_text.find(':')) !=
+          first_text.substr(0, first_text.find(':'))) {
+        std::fprintf(stderr, "warning: %s\n", second.what());
+      }
     }
     PrintSummary(arguments, report, measured, total_ms, decode_ms);
-    ThrowError(fault.what(), " (stopped after ", report.num_frames(),
-               " frames; their results are in ", arguments.output, ")");
+    ThrowError(fault.what(), " (stopped after ", rows_written, " frames; their results are in ",
+               arguments.output, ")");
   }
   progress.Finish();
   outputs.Close();
@@ -525,14 +569,26 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--max-frames", arguments->max_frames, "Stop after N frames (0: all)");
   ParticleFilterOptions& filter = arguments->tracker.filter;
   command
-      ->add_option("--particles", filter.particles_per_object, "Particles per object (paper: 60)")
+      ->add_option("--particles", filter.particles_per_object,
+                   "Particles per object (paper: 60); at most 1000000 over all objects")
+      ->capture_default_str();
+  command
+      ->add_option("--min-particles", filter.min_particles_per_object,
+                   "--adaptive: the fewest particles an object keeps")
+      ->capture_default_str();
+  command
+      ->add_option("--max-particles", filter.max_particles_per_object,
+                   "--adaptive: the most particles an object may grow to (raise it with more "
+                   "--particles)")
       ->capture_default_str();
   command->add_flag("--adaptive", filter.adaptive,
                     "Adapt the particle count per object by KLD-sampling (paper 4.3)");
   command->add_flag("--brute-force", arguments->tracker.brute_force,
                     "Match every frame against the whole database independently (the paper's "
                     "baseline) instead of filtering");
-  command->add_option("--seed", filter.seed, "Seed of the particle filter")->capture_default_str();
+  command->add_option("--seed", filter.seed, "Seed of the particle filter")
+      ->capture_default_str()
+      ->check(SeedNumber());
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
   command->add_flag("!--no-on-axis", arguments->tracker.on_axis_matching,

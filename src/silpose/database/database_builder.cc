@@ -27,6 +27,24 @@ bool DatabaseBuildOptions::Check(std::string* error) const {
   return true;
 }
 
+DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, int num_models,
+                                          double mesh_bytes, int num_threads) {
+  const double views = parameters.view_sphere.num_views;
+  const double length = parameters.signature.length;
+  const double records = views * parameters.num_shells() * std::max(num_models, 0);
+  // Per view and shell: a 25-byte record and M float radii. Per view of the sphere: its
+  // direction, bin and neighbour lists (about 64 bytes).
+  DatabaseSizeEstimate estimate;
+  estimate.file_bytes = records * (25.0 + 4.0 * length) + views * 64.0 + mesh_bytes + 4096.0;
+  const double resolution = parameters.render.resolution_px;
+  estimate.build_memory_bytes =
+      2.0 * estimate.file_bytes + std::max(num_threads, 1) * 2.0 * resolution * resolution;
+  // A spectrum: M/2 + 1 complex floats and as many magnitudes, plus two vectors' bookkeeping.
+  estimate.match_memory_bytes =
+      2.0 * estimate.file_bytes + records * ((length / 2.0 + 1.0) * 12.0 + 64.0);
+  return estimate;
+}
+
 void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
                         const DatabaseParameters& parameters, int num_threads,
                         const std::function<void(int)>& on_views_done, ModelViews* model) {
@@ -38,6 +56,20 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   model->radius = mesh.Radius();
   if (!(model->radius > 0.0) || !std::isfinite(model->radius)) {
     ThrowError(mesh.name, ": the mesh has no extent (all vertices coincide), nothing to render");
+  }
+  // A mesh whose triangles enclose no area (collinear or coincident vertices) has no silhouette
+  // from any view: refuse it rather than store views that can never match.
+  double area = 0.0;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.vertices[t[0]].cast<double>();
+    const Eigen::Vector3d b = mesh.vertices[t[1]].cast<double>();
+    const Eigen::Vector3d c = mesh.vertices[t[2]].cast<double>();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  if (!(area > 1e-9 * model->radius * model->radius)) {
+    ThrowError(mesh.name,
+               ": the mesh is degenerate: its triangles have no area (collinear or coincident "
+               "vertices), so it has no silhouette to match");
   }
   model->num_vertices = static_cast<uint32_t>(mesh.vertices.size());
   model->num_triangles = static_cast<uint32_t>(mesh.triangles.size());
@@ -89,6 +121,12 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   } else {
     tbb::task_arena arena(WorkerThreads(num_threads));
     arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe); });
+  }
+  if (std::none_of(model->views.begin(), model->views.end(),
+                   [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {
+    ThrowError(mesh.name,
+               ": no view of the mesh has a usable silhouette (a degenerate or tiny mesh?), so "
+               "it could never be matched");
   }
 }
 

@@ -22,6 +22,19 @@ struct DatabaseBuildOptions {
   bool Check(std::string* error = nullptr) const;
 };
 
+/// What a database of `num_models` models built with `parameters` will cost, estimated before
+/// building (docs/limits.md): the file; the memory build-db needs (the database and its serialised
+/// copy, plus a rendering per thread); the memory match and track need to load it and search every
+/// view (the file's bytes, the database and the views' spectra). Meshes are counted at
+/// `mesh_bytes` in all (their stored copy).
+struct DatabaseSizeEstimate {
+  double file_bytes = 0.0;
+  double build_memory_bytes = 0.0;
+  double match_memory_bytes = 0.0;
+};
+DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, int num_models,
+                                          double mesh_bytes = 0.0, int num_threads = 1);
+
 /// Builds the database for the meshes at `mesh_paths` (model names: file stems, which must be
 /// unique). Throws silpose::Error if a mesh cannot be loaded or the options are invalid.
 ViewDatabase BuildViewDatabase(const std::vector<std::filesystem::path>& mesh_paths,

@@ -122,5 +122,23 @@ TEST_F(DatabaseBuilderTest, BadInputNamesTheFile) {
   EXPECT_THROW(BuildViewDatabase({path}, bad), Error);
 }
 
+TEST_F(DatabaseBuilderTest, DegenerateMeshesAreRefusedByName) {
+  // Three collinear vertices: a radius, but no area and no silhouette from any view.
+  const auto path = directory_ / "needle.obj";
+  std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 3 2\n";
+  DatabaseBuildOptions options;
+  options.parameters.view_sphere.num_views = 20;
+  options.parameters.view_sphere.num_bins = 3;
+  options.num_threads = 1;
+  try {
+    BuildViewDatabase({path}, options);
+    ADD_FAILURE() << "a collinear mesh was accepted";
+  } catch (const Error& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("needle"), std::string::npos) << message;
+    EXPECT_NE(message.find("degenerate"), std::string::npos) << message;
+  }
+}
+
 }  // namespace
 }  // namespace silpose

@@ -1,5 +1,6 @@
 #include "silpose/database/view_database.h"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -11,6 +12,7 @@
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
+#include "silpose/util/output_file.h"
 
 namespace silpose {
 namespace {
@@ -63,6 +65,7 @@ class Reader {
   template <typename T>
   void GetArray(std::span<T> values, const char* what) {
     Need(values.size_bytes(), what);
+    if (values.empty()) return;  // memcpy must not get the null data() of an empty vector
     std::memcpy(values.data(), bytes_.data() + position_, values.size_bytes());
     position_ += values.size_bytes();
   }
@@ -300,23 +303,9 @@ std::string ViewDatabase::Serialize() const {
 }
 
 void ViewDatabase::Write(const std::filesystem::path& path) const {
-  const std::string bytes = Serialize();
-  std::filesystem::path temporary = path;
-  temporary += ".tmp";
-  {
-    std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
-    if (!stream) ThrowError(path.string(), ": cannot open for writing");
-    stream.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    stream.close();
-    if (!stream) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      ThrowError(path.string(), ": write failed (disk full?)");
-    }
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) ThrowError(path.string(), ": cannot write: ", error.message());
+  // A unique temporary file, then a rename: a killed build never leaves a half-written database
+  // under the name, and a device, FIFO or symbolic link at the path is refused, not replaced.
+  WriteFileAtomically(path, Serialize());
 }
 
 ViewDatabase ViewDatabase::Read(const std::filesystem::path& path) {
@@ -460,6 +449,10 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     model.source_path = in.GetString("model path", 1 << 16);
     model.mesh_hash = in.Get<uint64_t>("mesh hash");
     for (double& c : model.centre) c = in.Get<double>("model centre");
+    if (!std::isfinite(model.centre[0]) || !std::isfinite(model.centre[1]) ||
+        !std::isfinite(model.centre[2])) {
+      in.Fail("model '", model.name, "' has a non-finite centre");
+    }
     model.radius = in.Get<double>("model radius");
     if (!(model.radius > 0.0) || !std::isfinite(model.radius))
       in.Fail("model '", model.name, "' has radius ", model.radius);
@@ -509,6 +502,11 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
       if (!std::isfinite(r) || r < 0.0f) {
         in.Fail("model '", model.name, "' has an invalid signature value");
       }
+    }
+    if (std::none_of(model.views.begin(), model.views.end(),
+                     [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {
+      in.Fail("model '", model.name,
+              "' has no view with a usable silhouette (built from a degenerate mesh?)");
     }
     // A describable view's radii are divided by their mean: their mean is 1.
     for (size_t v = 0; v < num_records; ++v) {

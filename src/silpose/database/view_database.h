@@ -148,7 +148,8 @@ class ViewDatabase {
   /// Index of the model with this name, or -1.
   int FindModel(const std::string& name) const;
 
-  /// Writes the database (atomically: to a temporary file renamed over `path`).
+  /// Writes the database atomically: to a uniquely named temporary file beside `path`, renamed
+  /// over it. A device, FIFO, symbolic link or folder at `path` is refused, never replaced.
   /// Throws silpose::Error naming the file if it cannot be written.
   void Write(const std::filesystem::path& path) const;
   /// Serialises to bytes (what Write writes).

@@ -1,7 +1,9 @@
 #include "silpose/database/view_database.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -213,6 +215,47 @@ TEST(ViewDatabaseFile, InconsistentContentBehindAValidChecksumIsRefused) {
   Recompute(&nan_signature);
   EXPECT_NE(ErrorOf(nan_signature).find("invalid signature value"), std::string::npos)
       << ErrorOf(nan_signature);
+}
+
+TEST(ViewDatabaseFile, NonFiniteCentresAndModelsWithoutAUsableViewAreRefused) {
+  // Behind a recomputed checksum, as a hand-edited file would be.
+  ViewDatabase infinite = SmallDatabase();
+  infinite.models[1].centre[2] = std::numeric_limits<double>::infinity();
+  std::string bytes = infinite.Serialize();
+  EXPECT_NE(ErrorOf(bytes).find("model 'beta' has a non-finite centre"), std::string::npos)
+      << ErrorOf(bytes);
+
+  // A model none of whose views has a silhouette (what a degenerate mesh gives).
+  ViewDatabase empty = SmallDatabase();
+  for (ViewRecord& view : empty.models[0].views) view.status = SignatureStatus::kEmpty;
+  std::fill(empty.models[0].signatures.begin(), empty.models[0].signatures.end(), 0.0f);
+  bytes = empty.Serialize();
+  EXPECT_NE(ErrorOf(bytes).find("model 'alpha' has no view with a usable silhouette"),
+            std::string::npos)
+      << ErrorOf(bytes);
+}
+
+TEST(ViewDatabaseFile, WriteRefusesToReplaceNonRegularFiles) {
+  const auto directory =
+      std::filesystem::temp_directory_path() / ("silpose_db_write_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(directory);
+  const auto target = directory / "real.db";
+  std::ofstream(target) << "not replaced";
+  const auto link = directory / "link.db";
+  std::filesystem::create_symlink(target, link);
+  try {
+    SmallDatabase().Write(link);
+    ADD_FAILURE() << "a symbolic link was replaced";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("symbolic link"), std::string::npos) << error.what();
+  }
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+  // A stale temporary file of a killed build does not matter, and stays.
+  std::ofstream(directory / "new.db.tmp") << "stale";
+  SmallDatabase().Write(directory / "new.db");
+  EXPECT_EQ(ViewDatabase::Read(directory / "new.db").models.size(), 2u);
+  EXPECT_TRUE(std::filesystem::exists(directory / "new.db.tmp"));
+  std::filesystem::remove_all(directory);
 }
 
 TEST(ViewDatabaseFile, MissingFilesAndDirectoriesNameThePath) {

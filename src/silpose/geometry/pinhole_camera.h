@@ -22,6 +22,18 @@ struct PinholeCamera {
   /// True if the parameters describe a usable camera; otherwise `error` says what is wrong.
   bool Check(std::string* error = nullptr) const;
 
+  /// Bounds of a real camera's calibration (docs/limits.md): focal lengths between
+  /// kMinFocalPerSide and kMaxFocalPerSide times the longer image side; the principal point within
+  /// one image size of the image (-width..2 width, -height..2 height); |k1|, |k2|, |k3| <=
+  /// kMaxRadialDistortion and |p1|, |p2| <= kMaxTangentialDistortion. Beyond them poses are not
+  /// meaningful numbers.
+  static constexpr double kMinFocalPerSide = 0.01;
+  static constexpr double kMaxFocalPerSide = 1000.0;
+  static constexpr double kMaxRadialDistortion = 1000.0;
+  static constexpr double kMaxTangentialDistortion = 10.0;
+  /// Check() and the calibration bounds above (calibration files are checked with this).
+  bool CheckCalibration(std::string* error = nullptr) const;
+
   /// Projects a point in the camera frame (Z > 0) to pixel coordinates.
   Eigen::Vector2d Project(const Eigen::Vector3d& point_in_camera) const {
     return {focal_x_px * point_in_camera.x() / point_in_camera.z() + principal_x_px,

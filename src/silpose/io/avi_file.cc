@@ -7,6 +7,7 @@
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
+#include "silpose/io/image_limits.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -197,6 +198,8 @@ class HeaderParser {
       Fail("corrupt video format (frame size " + std::to_string(width) + "x" +
            std::to_string(height) + ")");
     }
+    std::string too_large;
+    if (!ImageSizeAllowed(width, std::abs(height), &too_large)) Fail(too_large);
     AviHeader& header = parsed_.header;
     header.frame_size = cv::Size(width, std::abs(height));
     header.bits_per_pixel = bits;
@@ -707,6 +710,8 @@ void AviWriter::Write(const cv::Mat& frame) {
   file_.write(reinterpret_cast<const char*>(chunk_header.data()), 8);
   file_.write(reinterpret_cast<const char*>(encoded_.data()), static_cast<std::streamsize>(size));
   if (size & 1) file_.put('\0');
+  // Every frame Write() returned from is in the file, even if the process is killed before Close().
+  file_.flush();
   if (!file_) Fail(label + "write failed (disk full?)");
   chunk_offsets_.push_back(static_cast<std::uint32_t>(position_ - movi_fourcc_offset_));
   chunk_sizes_.push_back(static_cast<std::uint32_t>(size));

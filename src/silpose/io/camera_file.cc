@@ -73,7 +73,7 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
     }
   }
   std::string problem;
-  if (!camera.Check(&problem)) ThrowError(name, ": invalid camera: ", problem);
+  if (!camera.CheckCalibration(&problem)) ThrowError(name, ": invalid camera: ", problem);
   return camera;
 }
 

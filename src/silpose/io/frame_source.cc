@@ -9,6 +9,8 @@
 #include <utility>
 
 #include "silpose/io/avi_file.h"
+#include "silpose/io/image_limits.h"
+#include "silpose/io/mask_file.h"
 #include "silpose/util/error.h"
 
 #if SILPOSE_WITH_VIDEOIO
@@ -48,6 +50,7 @@ bool AllDigits(const std::string& text) {
 cv::Mat DecodeImageFile(const std::filesystem::path& path, FrameColor color, int frame) {
   cv::Mat image;
   const int flags = color == FrameColor::kGray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_UNCHANGED;
+  CheckImageFileSize(path);
   try {
     image = cv::imread(path.string(), flags);
   } catch (const cv::Exception& exception) {
@@ -193,21 +196,26 @@ bool FrameSource::Read(cv::Mat* frame) {
       return false;
     }
     ++frame_index_;
+    CheckImageSize(name(), raw_.cols, raw_.rows);
     cv::Mat image = raw_;
-    if (image.depth() == CV_16U) {
+    if (color_ == FrameColor::kMask) {
+      image = DecodeMask(raw_, mask_threshold_, name());
+    } else if (image.depth() == CV_16U) {
       image.convertTo(image, CV_8U, 1.0 / 257.0);
     } else if (image.depth() != CV_8U) {
       ThrowError(name(), ": frame ", frame_index_, ": unsupported pixel depth (not 8 or 16 bits)");
     }
-    if (image.channels() == 4) {
+    if (color_ == FrameColor::kMask) {
+      // already one channel
+    } else if (image.channels() == 4) {
       cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
     } else if (image.channels() == 2) {
       cv::extractChannel(image, image, 0);
     }
     if (frame_index_ == 0) {
       first_size_ = image.size();
-      first_channels_ = color_ == FrameColor::kGray  ? 1
-                        : color_ == FrameColor::kBgr ? 3
+      first_channels_ = color_ == FrameColor::kGray || color_ == FrameColor::kMask ? 1
+                        : color_ == FrameColor::kBgr                               ? 3
                                                      : image.channels();
     } else if (image.size() != first_size_) {
       ThrowError(name(), ": frame ", frame_index_, " is ", image.cols, "x", image.rows,
@@ -255,8 +263,10 @@ bool ImageFolderSource::ReadNext(cv::Mat* frame) {
 
 // ---------------------------------------------------------------------------------------------
 
-std::unique_ptr<FrameSource> OpenFrameSource(const std::string& input,
-                                             const FrameSourceOptions& options) {
+namespace {
+
+std::unique_ptr<FrameSource> OpenSource(const std::string& input,
+                                        const FrameSourceOptions& options) {
   if (input.empty()) ThrowError("input: empty name (give a folder, a video file or a camera)");
   const std::filesystem::path path(input);
   std::error_code error;
@@ -305,6 +315,18 @@ std::unique_ptr<FrameSource> OpenFrameSource(const std::string& input,
                                                options.color);
   }
   return OpenVideoFile(path, options.color);
+}
+
+}  // namespace
+
+std::unique_ptr<FrameSource> OpenFrameSource(const std::string& input,
+                                             const FrameSourceOptions& options) {
+  if (options.mask_threshold < 0 || options.mask_threshold > 254) {
+    ThrowError("mask threshold must be in [0, 254], got ", options.mask_threshold);
+  }
+  std::unique_ptr<FrameSource> source = OpenSource(input, options);
+  source->set_mask_threshold(options.mask_threshold);
+  return source;
 }
 
 }  // namespace silpose

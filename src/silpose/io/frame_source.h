@@ -24,6 +24,9 @@ enum class FrameColor {
   kAsStored,  ///< CV_8UC1 if the first frame is grey, else CV_8UC3; later frames follow the first.
   kGray,      ///< Always CV_8UC1 (BGR is converted by luminance; MJPEG decodes straight to grey).
   kBgr,       ///< Always CV_8UC3 BGR (grey is replicated).
+  /// Always CV_8UC1 masks, 255 = object: each frame as stored (any depth, alpha kept) decoded by
+  /// the one mask rule of mask_file.h (DecodeMask, FrameSourceOptions::mask_threshold).
+  kMask,
 };
 
 /// Which subfolder of a sequence folder to read (a folder with masks/ and/or frames/ subfolders
@@ -38,6 +41,8 @@ struct FrameSourceOptions {
   FrameColor color = FrameColor::kAsStored;
   /// Subfolder taken when INPUT is a sequence folder (see SequenceFolder).
   SequenceFolder sequence_folder = SequenceFolder::kMasks;
+  /// FrameColor::kMask: a pixel is object above this value (8-bit scale, [0, 254]; see DecodeMask).
+  int mask_threshold = 0;
 };
 
 /// A sequence of frames read one at a time. Not thread-safe; one reader per source.
@@ -48,10 +53,14 @@ class FrameSource {
   FrameSource& operator=(const FrameSource&) = delete;
 
   /// Reads the next frame into `frame` (CV_8UC1 or CV_8UC3, see FrameColor). Returns false at the
-  /// end of the sequence. Throws silpose::Error naming the file and the frame for a corrupt,
-  /// truncated or unreadable frame, or for a frame whose size differs from the first frame's; all
-  /// good frames before it have been delivered. After an Error, Read() returns false.
+  /// end of the sequence. Frames beyond the image size limit (image_limits.h) are refused. Throws
+  /// silpose::Error naming the file and the frame for a corrupt, truncated or unreadable frame, or
+  /// for a frame whose size differs from the first frame's; all good frames before it have been
+  /// delivered. After an Error, Read() returns false.
   bool Read(cv::Mat* frame);
+
+  /// FrameColor::kMask: the threshold DecodeMask applies (set by OpenFrameSource from the options).
+  void set_mask_threshold(int threshold) { mask_threshold_ = threshold; }
 
   /// 0-based index of the last frame Read() delivered (-1 before the first).
   int frame_index() const { return frame_index_; }
@@ -79,6 +88,7 @@ class FrameSource {
 
  private:
   FrameColor color_;
+  int mask_threshold_ = 0;
   int frame_index_ = -1;
   bool finished_ = false;
   int first_channels_ = 0;

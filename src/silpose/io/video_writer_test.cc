@@ -72,6 +72,28 @@ TEST(VideoWriter, AviMixesGreyAndColourFramesLosslessly) {
   std::filesystem::remove_all(directory);
 }
 
+TEST(VideoWriter, EveryWrittenFrameIsOnDiskBeforeClose) {
+  // What a killed process leaves: the file as it is after the last Write(), without Close().
+  const auto directory = TempDir("killed");
+  VideoWriterOptions options;
+  options.avi_codec = AviCodec::kPng;
+  const cv::Size size(48, 32);
+  auto writer = OpenVideoWriter(directory / "overlay.avi", size, 24.0, options);
+  for (int i = 0; i < 5; ++i) writer->Write(Frame(i, size));
+  std::filesystem::copy_file(directory / "overlay.avi", directory / "snapshot.avi");
+  auto source = OpenFrameSource((directory / "snapshot.avi").string());
+  int frames = 0;
+  cv::Mat frame;
+  try {
+    while (source->Read(&frame)) ++frames;
+  } catch (const Error&) {
+    // An unfinished file may end with an error after its last whole frame.
+  }
+  EXPECT_EQ(frames, 5);
+  writer->Close();
+  std::filesystem::remove_all(directory);
+}
+
 TEST(VideoWriter, ChecksItsOptions) {
   VideoWriterOptions options;
   EXPECT_NO_THROW(options.Check());
