@@ -5,6 +5,25 @@
 #include "silpose/util/error.h"
 
 namespace silpose {
+namespace {
+
+// OpenCV allocates rows x cols of a matrix node before it reads its data, so a file announcing a
+// huge matrix would take all memory: the size is checked first (a camera's are 3x3 and at most
+// 14 distortion coefficients).
+void CheckMatrixSize(const cv::FileNode& node, const std::string& name, const char* field) {
+  const cv::FileNode rows = node["rows"];
+  const cv::FileNode cols = node["cols"];
+  if (!node.isMap() || !rows.isInt() || !cols.isInt() || !node["sizes"].empty()) {
+    ThrowError(name, ": ", field, " must be an OpenCV matrix with rows and cols");
+  }
+  const int r = static_cast<int>(rows);
+  const int c = static_cast<int>(cols);
+  if (r < 0 || c < 0 || r > 16 || c > 16 || r * c > 16) {
+    ThrowError(name, ": ", field, " has ", r, "x", c, " elements, more than a camera file holds");
+  }
+}
+
+}  // namespace
 
 PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
   const std::string name = path.string();
@@ -24,8 +43,10 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
   int height = 0;
   try {
     if (storage["camera_matrix"].empty()) ThrowError(name, ": no camera_matrix");
+    CheckMatrixSize(storage["camera_matrix"], name, "camera_matrix");
     storage["camera_matrix"] >> matrix;
     if (!storage["distortion_coefficients"].empty()) {
+      CheckMatrixSize(storage["distortion_coefficients"], name, "distortion_coefficients");
       storage["distortion_coefficients"] >> distortion;
     }
     if (storage["image_width"].empty() || storage["image_height"].empty()) {

@@ -91,5 +91,27 @@ TEST(CameraFile, BadFilesGiveOneClearMessageNamingTheFile) {
   }
 }
 
+// Found by fuzzing (camera_file_fuzzer): OpenCV allocates a matrix's rows x cols before reading
+// its data, so a file announcing a huge matrix must be refused before that.
+TEST(CameraFile, AHugeMatrixIsRefusedBeforeItIsAllocated) {
+  for (const char* field : {"camera_matrix", "distortion_coefficients"}) {
+    const auto path = TempPath(std::string("huge_") + field + ".yml");
+    std::ofstream stream(path);
+    stream << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\n";
+    if (std::string(field) == "distortion_coefficients") {
+      stream << "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                "   data: [ 300., 0., 160., 0., 300., 120., 0., 0., 1. ]\n";
+    }
+    stream << field << ": !!opencv-matrix\n   rows: 2000000000\n   cols: 3\n   dt: d\n"
+           << "   data: [ 1., 0., 0. ]\n";
+    stream.close();
+    const std::string error = ErrorOf(path);
+    EXPECT_NE(error.find(path.filename().string()), std::string::npos) << error;
+    EXPECT_NE(error.find(std::string(field) + " has 2000000000x3 elements"), std::string::npos)
+        << error;
+    std::filesystem::remove(path);
+  }
+}
+
 }  // namespace
 }  // namespace silpose
