@@ -1,6 +1,10 @@
 #include "silpose/io/camera_file.h"
 
+#include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "silpose/util/error.h"
 
@@ -29,6 +33,24 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error)) ThrowError(name, ": no such camera file");
+  // A camera file is a few hundred bytes of text. OpenCV's parsers are not made for anything else
+  // (binary content crashed its XML parser), so that is refused first.
+  constexpr std::uintmax_t kMaxBytes = 1 << 20;
+  const std::uintmax_t bytes = std::filesystem::file_size(path, error);
+  if (error) ThrowError(name, ": cannot read the camera file: ", error.message());
+  if (bytes > kMaxBytes) {
+    ThrowError(name, ": ", bytes, " bytes is too large for a camera file (at most ", kMaxBytes,
+               ")");
+  }
+  {
+    std::ifstream stream(path, std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(stream)),
+                           std::istreambuf_iterator<char>());
+    if (!stream.eof() && !stream) ThrowError(name, ": cannot read the camera file");
+    if (text.find('\0') != std::string::npos) {
+      ThrowError(name, ": a binary file, not an OpenCV YAML/XML/JSON camera file");
+    }
+  }
   cv::FileStorage storage;
   try {
     if (!storage.open(name, cv::FileStorage::READ)) {

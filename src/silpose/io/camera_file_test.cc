@@ -113,5 +113,24 @@ TEST(CameraFile, AHugeMatrixIsRefusedBeforeItIsAllocated) {
   }
 }
 
+// Found by fuzzing (camera_file_fuzzer): an XML file with NUL bytes crashed OpenCV's parser.
+TEST(CameraFile, BinaryAndHugeFilesAreRefusedBeforeOpenCvParsesThem) {
+  const auto binary = TempPath("binary.xml");
+  const std::string xml_with_nul("<?xml version=\0\0\"1.0\"?>\n<opencv_storage>\n", 40);
+  std::ofstream(binary, std::ios::binary) << xml_with_nul;
+  std::string error = ErrorOf(binary);
+  EXPECT_NE(error.find("silpose_camera_binary.xml: a binary file"), std::string::npos) << error;
+  const auto huge = TempPath("huge.yml");
+  {
+    std::ofstream stream(huge);
+    stream << "%YAML:1.0\n---\n";
+    for (int i = 0; i < 100000; ++i) stream << "comment_" << i << ": 0\n";
+  }
+  error = ErrorOf(huge);
+  EXPECT_NE(error.find("too large for a camera file"), std::string::npos) << error;
+  std::filesystem::remove(binary);
+  std::filesystem::remove(huge);
+}
+
 }  // namespace
 }  // namespace silpose
