@@ -15,6 +15,7 @@ travel back to the client.
 
 import os
 import tempfile
+import uuid
 
 import silpose
 
@@ -49,7 +50,7 @@ def build_database(mesh_paths, out, client, **options):
                                 "file stems and must be unique)")
         stems[stem] = path
     futures = client.map(_build_shard, mesh_paths, options=dict(options), pure=False,
-                         key=[f"silpose-build-{stem}" for stem in stems])
+                         key=[f"silpose-build-{stem}-{uuid.uuid4().hex}" for stem in stems])
     shards = client.gather(futures)
     with tempfile.TemporaryDirectory(prefix="silpose-shards-") as folder:
         paths = []
@@ -133,7 +134,7 @@ def track_videos(videos, database, outdir, client, camera=None, max_frames=0, **
     futures = client.map(_track_one, [os.path.abspath(v) for v in videos], outputs,
                          database=database, camera=camera, max_frames=max_frames,
                          options=dict(options), pure=False,
-                         key=[f"silpose-track-{name}" for name in names])
+                         key=[f"silpose-track-{name}-{uuid.uuid4().hex}" for name in names])
     summaries = client.gather(futures)
     for summary, video in zip(summaries, videos):
         summary["video"] = video

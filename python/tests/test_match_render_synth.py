@@ -85,3 +85,13 @@ def test_synthetic_sequence_frames_are_the_rendered_truth(tmp_path):
         silpose.SyntheticSequence(meshes, trajectory="spiral")
     with pytest.raises(silpose.Error, match="already holds a sequence|exists|overwrite"):
         sequence.write(tmp_path / "seq")
+
+
+def test_matcher_keeps_its_database_alive(cli_database):
+    import gc
+    matcher = silpose.Matcher(silpose.ViewDatabase.read(cli_database))
+    gc.collect()
+    direction = matcher.database.view_directions[5]
+    mask = silpose.render_view(silpose.load_mesh(model("hand")), direction, resolution=96)
+    best = matcher.match(mask, top_k=1)[0]
+    assert (best.model_name, best.view) == ("hand", 5)
