@@ -109,6 +109,11 @@ py::array ArrayView(const cv::Mat& mat) {
   return py::array(dtype, shape, strides, holder->data, owner);
 }
 
+// The views below read these element types as packed arrays of their scalars.
+static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double));
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+static_assert(sizeof(std::array<uint32_t, 3>) == 3 * sizeof(uint32_t));
+
 // A read-only numpy view of `count` rows of `columns` values at `data`, kept alive by `base`.
 template <typename T>
 py::array ReadOnlyView(const T* data, py::ssize_t count, py::ssize_t columns, py::handle base) {
@@ -449,8 +454,9 @@ void BindDatabase(py::module_& m) {
           "view_directions",
           [](py::object self) {
             const auto& database = self.cast<const ViewDatabase&>();
-            return ReadOnlyView<double>(database.sphere.directions.front().data(),
-                                        database.num_views(), 3, self);
+            return ReadOnlyView<double>(
+                reinterpret_cast<const double*>(database.sphere.directions.data()),
+                database.num_views(), 3, self);
           },
           "Unit view directions (object centre -> camera, model frame), a read-only (views, 3) "
           "float64 view of the database's memory.")
@@ -563,7 +569,7 @@ void BindGeometry(py::module_& m) {
           "vertices",
           [](py::object self) {
             const auto& mesh = self.cast<const TriangleMesh&>();
-            return ReadOnlyView<float>(mesh.vertices.front().data(),
+            return ReadOnlyView<float>(reinterpret_cast<const float*>(mesh.vertices.data()),
                                        static_cast<py::ssize_t>(mesh.vertices.size()), 3, self);
           },
           "Vertices, a read-only (V, 3) float32 view.")
@@ -571,7 +577,7 @@ void BindGeometry(py::module_& m) {
           "triangles",
           [](py::object self) {
             const auto& mesh = self.cast<const TriangleMesh&>();
-            return ReadOnlyView<uint32_t>(mesh.triangles.front().data(),
+            return ReadOnlyView<uint32_t>(reinterpret_cast<const uint32_t*>(mesh.triangles.data()),
                                           static_cast<py::ssize_t>(mesh.triangles.size()), 3, self);
           },
           "Vertex indices of each triangle, a read-only (T, 3) uint32 view.")
