@@ -8,6 +8,9 @@ import silpose
 import silpose.dask
 from conftest import DB_OPTIONS, make_video, model, read_poses, run_cli
 
+# Debian 12's distributed with its tornado warns about tornado's own API; not ours to fix.
+pytestmark = pytest.mark.filterwarnings("ignore:make_current is deprecated:DeprecationWarning")
+
 
 @pytest.fixture(scope="module")
 def client():
