@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -21,6 +22,7 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
+#include "silpose/io/mask_file.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/pose/pose_output.h"
@@ -188,21 +190,6 @@ TrackResult ToTrackResult(TrackedFrame&& tracked) {
   return out;
 }
 
-// A mask of any depth and channel count as CV_8UC1: object (255) where any channel is non-zero
-// (docs/conventions.md, "Masks"); a CV_8UC1 mask is used as it is.
-cv::Mat BinaryMask(const cv::Mat& mask) {
-  if (mask.type() == CV_8UC1) return mask;
-  std::vector<cv::Mat> channels;
-  cv::split(mask, channels);
-  cv::Mat binary = cv::Mat::zeros(mask.size(), CV_8UC1);
-  for (const cv::Mat& channel : channels) {
-    cv::Mat nonzero;
-    cv::compare(channel, 0, nonzero, cv::CMP_NE);
-    binary |= nonzero;
-  }
-  return binary;
-}
-
 // Matching: the spectra and one matcher, bound to a database that outlives them.
 class Matcher {
  public:
@@ -227,7 +214,7 @@ class Matcher {
 
   std::vector<Candidate> MatchMask(const cv::Mat& mask, const MatchOptions& options) {
     const SignatureResult silhouette =
-        ExtractSignature(BinaryMask(mask), database_.parameters.signature);
+        ExtractSignature(DecodeMask(mask), database_.parameters.signature);
     if (!silhouette.ok()) {
       ThrowError(
           "mask: no usable silhouette (", ToString(silhouette.status),
@@ -678,7 +665,9 @@ void BindMatch(py::module_& m) {
             return matcher.MatchMask(view, options);
           },
           py::arg("mask"), py::arg("top_k") = 5, py::arg("exhaustive") = false,
-          "The best `top_k` candidates (model, view, roll, score) for a mask (non-zero = object; "
+          "The best `top_k` candidates (model, view, roll, score) for a mask (non-zero = object, "
+          "as "
+          "docs/conventions.md says; "
           "uint8, uint16 or float32 array of shape (H, W) or (H, W, C)), best first. Raises "
           "silpose.Error if the mask has no usable silhouette.")
       .def(
@@ -777,7 +766,15 @@ void BindTrack(py::module_& m) {
       .def_property(
           "particles_per_object",
           [](const TrackerOptions& o) { return o.filter.particles_per_object; },
-          [](TrackerOptions& o, int v) { o.filter.particles_per_object = v; },
+          [](TrackerOptions& o, int v) {
+            // As 'silpose track --particles': without adaptive sampling the count is fixed, and
+            // the floor and cap follow it.
+            o.filter.particles_per_object = v;
+            if (!o.filter.adaptive) {
+              o.filter.min_particles_per_object = std::min(o.filter.min_particles_per_object, v);
+              o.filter.max_particles_per_object = std::max(o.filter.max_particles_per_object, v);
+            }
+          },
           "Particles per object of the filter (--particles).")
       .def(
           "check",

@@ -102,6 +102,12 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
         tracker.process(np.zeros((48, 128), np.uint8)[:, ::2])
     with pytest.raises(silpose.Error, match="frame: expected an array of shape"):
         tracker.process(np.zeros(10, np.uint8))
+    # More particles than the adaptive cap's default: the floor and cap follow, as with --particles.
+    many = silpose.TrackerOptions(particles_per_object=400)
+    many.check()
+    assert many.particles_per_object == 400
+    with pytest.raises(silpose.Error, match="particles"):
+        silpose.TrackerOptions(particles_per_object=0).check()
     with pytest.raises(silpose.Error, match="TrackerOptions: unknown option 'segmnt'"):
         silpose.TrackerOptions(segmnt="bgsub")
     with pytest.raises(silpose.Error, match="'bgsubtraction'"):
