@@ -527,12 +527,11 @@ void AddTrackCommand(CLI::App& app) {
   // -d, input and -o are required, from the command line or the --config file (checked then).
   command->add_option("-d,--database", arguments->database,
                       "Database file from build-db (required)");
-  command->add_option(
-      "input", arguments->input,
-      "Folder of images (name order; a synth folder's masks/ or, with --segment "
-      "bgsub/threshold, frames/), a video file (.avi; .mp4 and others in a "
-      "SILPOSE_WITH_VIDEOIO build), or a camera index (SILPOSE_WITH_VIDEOIO build); "
-      "required");
+  command->add_option("input", arguments->input,
+                      "Folder of images (name order; a synth folder's masks/ or, with --segment "
+                      "bgsub/threshold, frames/), a video file (.avi; .mp4 and others in a "
+                      "SILPOSE_WITH_VIDEOIO build), or a live camera (/dev/video0 or its number 0; "
+                      "Video4Linux2); required");
   command->add_option("-o,--output", arguments->output, "POSES.csv to write (required)");
   command->add_option("--camera", arguments->camera,
                       "OpenCV calibration YAML of the camera (silpose calibrate); default: "

@@ -11,6 +11,7 @@
 #include "silpose/io/avi_file.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/io/v4l2_camera.h"
 #include "silpose/util/error.h"
 
 #if SILPOSE_WITH_VIDEOIO
@@ -270,10 +271,24 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input,
   if (input.empty()) ThrowError("input: empty name (give a folder, a video file or a camera)");
   const std::filesystem::path path(input);
   std::error_code error;
+#if defined(__linux__)
+  // Video4Linux2 devices, in every build.
+  if (input.rfind("/dev/video", 0) == 0 || input.rfind("/dev/v4l/", 0) == 0) {
+    return std::make_unique<V4l2CameraSource>(input, options.color);
+  }
+#endif
   if (!std::filesystem::exists(path, error)) {
     if (AllDigits(input)) {
 #if SILPOSE_WITH_VIDEOIO
       return std::make_unique<OpenCvVideoSource>(std::stoi(input), options.color);
+#elif defined(__linux__)
+      // Camera number N is /dev/videoN, read through Video4Linux2.
+      try {
+        return std::make_unique<V4l2CameraSource>("/dev/video" + input, options.color);
+      } catch (const Error& fault) {
+        ThrowError(input, ": no such file or folder, nor a camera: ", fault.what(),
+                   " (cameras that Video4Linux2 cannot read: ", kVideoIoHint, ")");
+      }
 #else
       ThrowError(input, ": no such file or folder; reading it as camera number ", input, " ",
                  kVideoIoHint);

@@ -127,10 +127,13 @@ class ImageFolderSource final : public FrameSource {
 ///    whose codec that reader does not decode goes to OpenCV instead;
 ///  - an existing image file: a one-frame source;
 ///  - another existing file: OpenCV videoio (mp4, mkv, mov, ...) if built with it;
-///  - a string of digits that is not an existing path: camera number N through OpenCV videoio.
+///  - a path starting with /dev/video or /dev/v4l/ (Linux): a Video4Linux2 camera
+///    (V4l2CameraSource, v4l2_camera.h), in every build;
+///  - a string of digits that is not an existing path: camera number N, through OpenCV videoio in
+///    a build with it, else (Linux) /dev/videoN through Video4Linux2.
 /// Throws silpose::Error: "no such file or folder", a folder without images, a file that is not a
-/// readable video, and for videos other than AVI or for cameras in a build without
-/// SILPOSE_WITH_VIDEOIO, a message naming that CMake option.
+/// readable video, a camera that cannot be opened, and for videos other than AVI in a build
+/// without SILPOSE_WITH_VIDEOIO, a message naming that CMake option.
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& input,
                                              const FrameSourceOptions& options = {});
 
