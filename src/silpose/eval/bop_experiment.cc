@@ -228,8 +228,15 @@ BopExperimentResult RunBopExperiment(const BopDataset& dataset, const ViewDataba
       if (options.masks == BopMaskSource::kImage)
         tracker_options.segmentation = options.segmentation;
       tracker_options.brute_force = options.brute_force;
-      if (options.particles_per_object > 0)
-        tracker_options.filter.particles_per_object = options.particles_per_object;
+      if (options.particles_per_object > 0) {
+        // A fixed count: the adaptive floor and cap follow it (any count works).
+        ParticleFilterOptions& filter = tracker_options.filter;
+        filter.particles_per_object = options.particles_per_object;
+        filter.min_particles_per_object =
+            std::min(filter.min_particles_per_object, filter.particles_per_object);
+        filter.max_particles_per_object =
+            std::max(filter.max_particles_per_object, filter.particles_per_object);
+      }
       tracker_options.filter.seed = options.seed + static_cast<uint64_t>(instance_count);
       Tracker tracker(database, camera, tracker_options);
       ++instance_count;

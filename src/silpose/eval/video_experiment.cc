@@ -1,5 +1,6 @@
 #include "silpose/eval/video_experiment.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -130,6 +131,11 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
     if (tracker_options.segmentation.kind == SegmenterKind::kBackground)
       tracker_options.segmentation.background_image_path = background_path.string();
     tracker_options.filter.particles_per_object = options.particles_per_object;
+    // A fixed count: the adaptive floor and cap follow it (any count works).
+    tracker_options.filter.min_particles_per_object =
+        std::min(tracker_options.filter.min_particles_per_object, options.particles_per_object);
+    tracker_options.filter.max_particles_per_object =
+        std::max(tracker_options.filter.max_particles_per_object, options.particles_per_object);
     tracker_options.filter.seed = seed;
     Tracker tracker(database, camera, tracker_options);
     TrackReport report(names);
