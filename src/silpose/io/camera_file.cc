@@ -1,6 +1,7 @@
 #include "silpose/io/camera_file.h"
 
 #include <algorithm>
+#include <exception>
 #include <fstream>
 #include <iterator>
 #include <opencv2/core.hpp>
@@ -56,8 +57,12 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
     if (!storage.open(name, cv::FileStorage::READ)) {
       ThrowError(name, ": cannot read as an OpenCV YAML/XML/JSON camera file");
     }
+  } catch (const Error&) {
+    throw;
   } catch (const cv::Exception& exception) {
     ThrowError(name, ": not an OpenCV YAML/XML/JSON camera file (", exception.err, ")");
+  } catch (const std::exception&) {  // OpenCV's parsers also let standard exceptions through
+    ThrowError(name, ": not an OpenCV YAML/XML/JSON camera file");
   }
   cv::Mat matrix;
   cv::Mat distortion;
@@ -79,8 +84,12 @@ PinholeCamera ReadCameraFile(const std::filesystem::path& path) {
     }
     storage["image_width"] >> width;
     storage["image_height"] >> height;
+  } catch (const Error&) {
+    throw;
   } catch (const cv::Exception& exception) {
     ThrowError(name, ": malformed camera file (", exception.err, ")");
+  } catch (const std::exception&) {
+    ThrowError(name, ": malformed camera file");
   }
   if (matrix.rows != 3 || matrix.cols != 3 || matrix.channels() != 1) {
     ThrowError(name, ": camera_matrix must be a 3x3 matrix, got ", matrix.rows, "x", matrix.cols);

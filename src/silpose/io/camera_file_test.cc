@@ -132,5 +132,34 @@ TEST(CameraFile, BinaryAndHugeFilesAreRefusedBeforeOpenCvParsesThem) {
   std::filesystem::remove(huge);
 }
 
+// Found by fuzzing (camera_file_fuzzer): a key with bytes that are not UTF-8 made OpenCV's YAML
+// parser throw std::length_error, which is not a cv::Exception.
+TEST(CameraFile, ParserExceptionsOtherThanOpenCvsAreOneClearMessage) {
+  const auto path = TempPath("badkey.yml");
+  std::ofstream(path, std::ios::binary)
+      << "%YAML:1.0\n"
+         "---\n"
+         "image_width: 64\n"
+         "image_height: 48\n"
+         "camera_matrix: !!opencv-matrix\n"
+         "   rows: 3\n"
+         "   cols: 3\n"
+         "   dt: d\n"
+         "   data: [ 60., 0., 32., 0., 60., 24., 0., 0., 1. ]\n"
+         "distortion_coef\xff"
+         "\xff\xff"
+         "\xff\xff"
+         "\xff\xff"
+         "\xff"
+         "ficients: !!opencv-matrix\n"
+         "   rows: 1\n"
+         "   cols: 5\n"
+         "   :dt d\n"
+         "   data: [ -1.0000000000000001e-01, 1.0000000000000000e-02, 0., 0., 0. ]\n";
+  const std::string error = ErrorOf(path);
+  EXPECT_NE(error.find("silpose_camera_badkey.yml"), std::string::npos) << error;
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace silpose
