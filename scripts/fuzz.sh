@@ -6,7 +6,8 @@
 # more than 10 s or more than 2048 MB). Reproducers are kept in BUILD/fuzz-out/<target>/.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
 # Environment: SILPOSE_FUZZ_PRESET (default fuzz; CI passes asan, whose build already has them),
-#              SILPOSE_FUZZ_JOBS (targets run at the same time, default 1).
+#              SILPOSE_FUZZ_JOBS (targets run at the same time, default 1),
+#              SILPOSE_FUZZ_NO_BUILD=1 (run the fuzzers already built).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-600}"
@@ -19,8 +20,10 @@ targets=("$@")
 case "$seconds" in '' | *[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, not '$seconds'" >&2; exit 2 ;; esac
 
 build="build/$preset"
-cmake --preset "$preset" >/dev/null
-cmake --build "$build" --target fuzzers --parallel "$(nproc)"
+if [ "${SILPOSE_FUZZ_NO_BUILD:-0}" = 0 ]; then
+  cmake --preset "$preset" >/dev/null
+  cmake --build "$build" --target fuzzers --parallel "$(nproc)"
+fi
 out="$build/fuzz-out"
 mkdir -p "$out"
 
@@ -30,17 +33,19 @@ run_target() {
   [ -x "$binary" ] || { echo "fuzz.sh: no fuzzer '$t' ($binary)" >&2; return 2; }
   mkdir -p "$dir/corpus" "$dir/artifacts"
   rm -f "$dir/artifacts/"*
-  local status=0
+  local status=0 start
+  start=$(date +%s)
   # New inputs go to $dir/corpus; the seeds in the tree are only read.
   "$binary" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
     -artifact_prefix="$dir/artifacts/" "$dir/corpus" "fuzz/corpus/$t" >"$dir/log.txt" 2>&1 ||
     status=$?
-  local execs corpus findings
+  local execs corpus findings elapsed
+  elapsed=$(($(date +%s) - start))
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/log.txt" | grep -o '[0-9]*$' | tail -1)
   corpus=$(find "$dir/corpus" "fuzz/corpus/$t" -type f | wc -l)
   findings=$(find "$dir/artifacts" -type f | wc -l)
   [ "$status" = 0 ] || [ "$findings" -gt 0 ] || findings="exit $status"
-  printf '%-12s %8s %12s %8s   %s\n' "$t" "$seconds" "${execs:-?}" "$corpus" "$findings" >"$dir/result.txt"
+  printf '%-12s %8s %12s %8s   %s\n' "$t" "$elapsed" "${execs:-?}" "$corpus" "$findings" >"$dir/result.txt"
 }
 
 pids=()

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# The sanitizer stages of CI (scripts/run-tests.sh runs them after the release tests):
+#  1. asan:  clang -O1 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite
+#            except the tests labelled 'slow' (long-running experiments: they check accuracy, which
+#            the release run already does, and take minutes under the sanitizers);
+#  2. fuzz:  every libFuzzer target of that build for SILPOSE_CI_FUZZ_SECONDS (default 20) seconds
+#            from its seed corpus (scripts/fuzz.sh);
+#  3. tsan:  clang -O1 -g with ThreadSanitizer; only the tests that run several threads.
+# Prints each stage's wall-clock time. Stages can be chosen: scripts/run-sanitizers.sh asan tsan.
+# Assumes the dependencies are installed (scripts/install-deps.sh).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+stages=("$@")
+[ ${#stages[@]} -gt 0 ] || stages=(asan fuzz tsan)
+jobs="$(nproc)"
+timings=()
+stage() {
+  local name="$1" start end
+  shift
+  start=$(date +%s)
+  echo "== run-sanitizers.sh: $name"
+  "$@"
+  end=$(date +%s)
+  timings+=("$(printf '%-28s %5d s' "$name" $((end - start)))")
+}
+for s in "${stages[@]}"; do
+  case "$s" in
+    asan)
+      stage "asan: configure and build" bash -c "cmake --preset asan >/dev/null && cmake --build --preset asan --parallel $jobs"
+      stage "asan: tests (not 'slow')" ctest --preset asan ;;
+    fuzz)
+      stage "fuzz: ${SILPOSE_CI_FUZZ_SECONDS:-20} s per target" env SILPOSE_FUZZ_PRESET=asan SILPOSE_FUZZ_JOBS="$jobs" \
+        bash scripts/fuzz.sh "${SILPOSE_CI_FUZZ_SECONDS:-20}" ;;
+    tsan)
+      stage "tsan: configure and build" bash -c "cmake --preset tsan >/dev/null && cmake --build --preset tsan --parallel $jobs"
+      stage "tsan: threaded tests" ctest --preset tsan ;;
+    *) echo "run-sanitizers.sh: unknown stage '$s' (asan, fuzz, tsan)" >&2; exit 2 ;;
+  esac
+done
+echo "== run-sanitizers.sh: times"
+printf '%s\n' "${timings[@]}"
