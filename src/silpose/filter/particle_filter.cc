@@ -76,6 +76,12 @@ bool ParticleFilterOptions::Check(std::string* error) const {
     message << "proposal views must be >= 1, got " << proposal_views;
   } else if (!(in(proposal_prior_floor, 0.0, 1.0) && proposal_prior_floor > 0.0)) {
     message << "proposal prior floor must be in (0, 1], got " << proposal_prior_floor;
+  } else if (proposal_objects_per_frame < 0) {
+    message << "proposal objects per frame must be >= 0, got " << proposal_objects_per_frame;
+  } else if (!in(proposal_confident_score, -1.0, 1.0)) {
+    message << "proposal confident score must be in [-1, 1], got " << proposal_confident_score;
+  } else if (!in(proposal_drop, 0.0, 2.0)) {
+    message << "proposal drop must be in [0, 2], got " << proposal_drop;
   } else if (!in(cut_min_score, -1.0, 1.0)) {
     message << "cut minimum score must be in [-1, 1], got " << cut_min_score;
   } else if (!in(cut_score_gap, 0.0, 2.0)) {
@@ -159,6 +165,7 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
       }
     }
   }
+  challenger_score_.assign(static_cast<size_t>(num_objects_), -1.0f);
   group_head_.assign(static_cast<size_t>(num_objects_) * static_cast<size_t>(num_views_), -1);
   const int total = options.particles_per_object * num_objects_;
   particles_.reserve(static_cast<size_t>(total));
@@ -251,13 +258,15 @@ FilterEstimate ParticleFilter::Predict() { return Advance(nullptr); }
 
 FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   if (frame_ > 0) PredictParticles();
+  // Scores first: whether the particles lost the frame decides how much the proposal covers.
+  if (frame != nullptr) ScoreParticles(*frame);
   int proposed = 0;
   if (frame != nullptr && frame->has_variance && RankingReady() &&
       (options_.data_driven_proposal || (!measured_once_ && options_.guided_start))) {
-    proposed = Propose(*frame);
+    proposed = Propose(*frame, !measured_once_ || ParticlesLostFrame());
   }
   if (frame != nullptr) {
-    MeasureParticles(*frame);
+    WeightParticles(*frame);
     measured_once_ = true;
   }
 
@@ -329,6 +338,7 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   estimate.score = chosen.score;
   estimate.weight = chosen.weight;
   best_history_ = chosen.history;
+  if (frame != nullptr && frame->has_variance) last_estimate_score_ = chosen.score;
   UpdateVelocity(estimate);
   estimate.speed_deg = velocity_.norm() / kRadPerDeg;
 
@@ -526,21 +536,50 @@ std::vector<size_t> ParticleFilter::ObjectRanges() const {
   return begin;
 }
 
-int ParticleFilter::Propose(const SignatureSpectrum& frame) {
+bool ParticleFilter::ParticlesLostFrame() const {
+  float best = -1.0f;
+  for (const Particle& p : particles_) best = std::max(best, p.score);
+  return best < options_.proposal_confident_score ||
+         best < last_estimate_score_ - options_.proposal_drop;
+}
+
+int ParticleFilter::Propose(const SignatureSpectrum& frame, bool all_objects) {
   // Object masses and mean particle weights before the proposal.
   const auto num_objects = static_cast<size_t>(num_objects_);
   std::vector<double> mass(num_objects, 0.0);
   for (const Particle& p : particles_) mass[static_cast<size_t>(p.object)] += p.weight;
   const auto top = static_cast<int>(std::max_element(mass.begin(), mass.end()) - mass.begin());
+  // Which objects: all, or the most probable and the next ones in turn.
+  std::vector<char> chosen(num_objects, all_objects ? 1 : 0);
+  chosen[static_cast<size_t>(top)] = 1;
+  if (!all_objects) {
+    // Challengers: objects whose best view came close to the tracked object at their last
+    // proposal stay in every frame's proposal.
+    float tracked_best = -1.0f;
+    for (const Particle& p : particles_) {
+      if (p.object == top) tracked_best = std::max(tracked_best, p.score);
+    }
+    for (size_t o = 0; o < num_objects; ++o) {
+      if (challenger_score_[o] >= tracked_best - options_.proposal_drop) chosen[o] = 1;
+    }
+    const int others = std::min(options_.proposal_objects_per_frame, num_objects_ - 1);
+    for (int k = 0; k < others; ++k) {
+      if (next_proposal_object_ == top)
+        next_proposal_object_ = (next_proposal_object_ + 1) % num_objects_;
+      chosen[static_cast<size_t>(next_proposal_object_)] = 1;
+      next_proposal_object_ = (next_proposal_object_ + 1) % num_objects_;
+    }
+  }
   const std::vector<size_t> begin = ObjectRanges();
   int proposed = 0;
   std::vector<size_t> order;
   for (int o = 0; o < num_objects_; ++o) {
     const auto object = static_cast<size_t>(o);
     const size_t count = begin[object + 1] - begin[object];
-    if (count == 0) continue;
+    if (count == 0 || !chosen[object]) continue;
     const int wanted = o == top && measured_once_ ? options_.proposal_views : 1;
     const std::vector<CandidateView> candidates = BestViewsOfObject(frame, o, wanted);
+    challenger_score_[object] = candidates.empty() ? -1.0f : candidates.front().score;
     if (candidates.empty()) continue;
     // The object's particles by increasing weight: the lightest are replaced.
     order.clear();
@@ -597,7 +636,7 @@ int ParticleFilter::Propose(const SignatureSpectrum& frame) {
   return proposed;
 }
 
-void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
+void ParticleFilter::ScoreParticles(const SignatureSpectrum& frame) {
   // A signature without variance (a nearly circular silhouette after smoothing) says nothing.
   if (!frame.has_variance) return;
   const int length = spectra_.signature_length();
@@ -663,6 +702,10 @@ void ParticleFilter::MeasureParticles(const SignatureSpectrum& frame) {
       }
     }
   }
+}
+
+void ParticleFilter::WeightParticles(const SignatureSpectrum& frame) {
+  if (!frame.has_variance) return;
   // w <- w (exp(lambda (s - s_best)) + floor): exp(lambda (s - 1)) up to normalisation, taken
   // relative to the best score so that the best particle's factor is 1 + floor, nothing underflows
   // needlessly, and the floor is relative to the best particle (the header explains why).

@@ -54,6 +54,14 @@
 //       an ambiguous frame (a mirror-twin view, a degraded silhouette) cannot pull the estimate
 //       away: the twin's proposal starts with little weight and has to keep winning.
 //       The guided start below is the same proposal at the first silhouette.
+//       Cost: ranking an object's views and correlating its best ranked ones touches all of its
+//       views, so the proposal is amortised over frames: the most probable object is proposed
+//       every frame, the others proposal_objects_per_frame at a time in turn, and all of them at
+//       once only when the particles lost the frame (the best particle's score is below
+//       proposal_confident_score, or fell by more than proposal_drop since the previous
+//       frame's estimate: a cut, another object, a degraded frame) and at the first silhouette.
+//       An object whose best view scored within proposal_drop of the tracked object's best
+//       particle at its last proposal (a look-alike, a challenger) is proposed every frame.
 //  2. Measurement (Step only). Each particle's similarity s is the circular correlation of the
 //     frame with its (object, view) reference at the nearest local peak within roll_search_deg
 //     of its predicted roll (CircularCorrelator::LocalPeaks), and the particle's roll moves to
@@ -236,6 +244,17 @@ struct ParticleFilterOptions {
   /// Least weight of a proposed particle, relative to its object's mean particle weight, in
   /// (0, 1].
   double proposal_prior_floor = 0.2;
+  /// Objects besides the most probable one proposed per frame, in turn (>= 0); every object is
+  /// proposed in a frame the particles lost (below). At least the number of objects minus one:
+  /// every object every frame.
+  int proposal_objects_per_frame = 4;
+  /// The particles lost the frame when its best particle scores below proposal_confident_score
+  /// or more than proposal_drop below the previous frame's estimate (scores in [-1, 1]); then
+  /// every object is proposed. An object whose best view came within proposal_drop of the
+  /// tracked object's best particle is proposed every frame. Clean silhouettes score 0.975 or
+  /// better at their nearest view (see the cut rule below).
+  double proposal_confident_score = 0.97;
+  double proposal_drop = 0.02;
   /// Cut rule (step 3): when a particle scores at least cut_min_score and at least
   /// cut_score_gap above the particle the estimate rule chose, the frame is taken as a cut: that
   /// particle is reported and given half of the total weight. Clean silhouettes match their
@@ -445,10 +464,17 @@ class ParticleFilter {
   /// Where each object's particles start in particles_ (sorted by object), and the end.
   std::vector<size_t> ObjectRanges() const;
   int NearestView(int start, const Eigen::Vector3d& direction) const;
-  int Propose(const SignatureSpectrum& frame);
+  /// The mixture proposal; `all_objects`: every object, else the most probable one and the
+  /// next proposal_objects_per_frame in turn.
+  int Propose(const SignatureSpectrum& frame, bool all_objects);
+  /// Whether the scored particles lost the frame (see proposal_confident_score).
+  bool ParticlesLostFrame() const;
   void UpdateVelocity(const FilterEstimate& estimate);
   void ApplyVelocityObservation(const Eigen::Matrix3d& change_rotation);
-  void MeasureParticles(const SignatureSpectrum& frame);
+  /// Measurement: ScoreParticles correlates (score and roll), WeightParticles applies the
+  /// likelihood to the scores.
+  void ScoreParticles(const SignatureSpectrum& frame);
+  void WeightParticles(const SignatureSpectrum& frame);
   void Resample(const std::vector<double>& object_mass, const SignatureSpectrum* frame);
   struct CandidateView {
     int view = -1;
@@ -475,6 +501,12 @@ class ParticleFilter {
   std::mt19937_64 rng_;
   int64_t frame_ = 0;
   bool measured_once_ = false;
+  /// Score of the last measured frame's estimate (proposal schedule), and the next object whose
+  /// turn it is for a proposal.
+  double last_estimate_score_ = -1.0;
+  int next_proposal_object_ = 0;
+  /// Per object, the best view's score at its last proposal (-1 before any).
+  std::vector<float> challenger_score_;
   /// Frame silhouette's apparent size of the current measurement (0 = unknown).
   double apparent_radius_ = 0.0;
   /// Velocity state (kAdaptive): rotation vector per frame, camera frame, radians.

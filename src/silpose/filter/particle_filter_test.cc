@@ -188,6 +188,41 @@ TEST_F(ParticleFilterTest, ReidentifiesTheObjectWithinTenFramesAfterASwitch) {
   }
 }
 
+TEST_F(ParticleFilterTest, ProposalCoversEveryObjectOnlyWhenTheParticlesLoseTheFrame) {
+  // Object 0 for 20 frames, then object 2: the switch is a frame the particles lose.
+  std::vector<TruePose> path = SmoothPath(50, 0, 20);
+  const std::vector<TruePose> after = SmoothPath(51, 2, 12);
+  path.insert(path.end(), after.begin(), after.end());
+  ParticleFilterOptions options;
+  options.seed = 9;
+  options.proposal_objects_per_frame = 0;  // only the most probable object when confident
+  ParticleFilter filter(Sphere(), *spectra_, options);
+  const int views = options.proposal_views;
+  int cheap = 0;
+  int right_after_switch = 0;
+  for (size_t t = 0; t < path.size(); ++t) {
+    const FilterEstimate estimate = filter.Step(Signature(path[t]));
+    if (t == 0) EXPECT_EQ(estimate.proposed, 3) << "first frame: each object's best view";
+    if (t >= 10 && t < 20) cheap += estimate.proposed == views;
+    // A proposal covers the most probable object (views) and some others (one each).
+    EXPECT_GE(estimate.proposed, views) << "frame " << t;
+    EXPECT_LE(estimate.proposed, views + 2) << "frame " << t;
+    if (t == 20) EXPECT_EQ(estimate.proposed, views + 2) << "the switch: every object";
+    if (t >= 25) right_after_switch += Right(estimate, path[t]);
+  }
+  // Tracking a clean silhouette, most frames propose for the tracked object only.
+  EXPECT_GE(cheap, 8);
+  EXPECT_EQ(right_after_switch, static_cast<int>(path.size()) - 25);
+
+  // Enough objects per frame for all of them: every frame covers every object.
+  options.proposal_objects_per_frame = 2;
+  ParticleFilter every(Sphere(), *spectra_, options);
+  for (size_t t = 1; t < 12; ++t) {
+    const FilterEstimate estimate = every.Step(Signature(path[t]));
+    if (t > 1) EXPECT_EQ(estimate.proposed, views + 2) << "frame " << t;
+  }
+}
+
 TEST_F(ParticleFilterTest, PredictionOnlyFramesAreReportedAndKeepTheFilterValid) {
   const std::vector<TruePose> path = SmoothPath(40, 1, 30);
   ParticleFilter filter(Sphere(), *spectra_);
