@@ -381,7 +381,9 @@ TEST_F(CliLimitsTest, ImagesBeyondTheSizeLimitAreRefusedBeforeDecoding) {
   for (const std::string& command :
        {"track -d " + database_ + " " + folder.string() + " -o " + Path("huge.csv"),
         "track -d " + database_ + " " + folder.string() + " --segment bgsub -o " + Path("huge.csv"),
-        "match -d " + database_ + " " + (folder / "000000.png").string()}) {
+        "match -d " + database_ + " " + (folder / "000000.png").string(),
+        "track -d " + database_ + " " + sequence_ + " --segment bgsub --background " +
+            (folder / "000000.png").string() + " -o " + Path("huge.csv")}) {
     const CommandResult run = Silpose(command);
     EXPECT_EQ(run.exit_code, 1) << command;
     EXPECT_EQ(Lines(run.err), 1) << run.err;

@@ -11,6 +11,7 @@
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
+#include "silpose/io/image_limits.h"
 #include "silpose/io/mask_file.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/mesh/triangle_mesh.h"
@@ -363,6 +364,9 @@ void RunTrackJob(const TrackJob& arguments) {
   }
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
+  if (!segment.background_image_path.empty()) {
+    CheckImageFileSize(segment.background_image_path);  // the image size limit, before decoding
+  }
 
   FrameSourceOptions source_options;
   source_options.sequence_folder =
