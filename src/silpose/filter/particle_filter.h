@@ -420,6 +420,10 @@ class ParticleFilter {
   /// filter. Throws silpose::Error for invalid options or a sphere that does not match the spectra.
   ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spectra,
                  const ParticleFilterOptions& options = {});
+  /// The filter keeps references to the sphere and the spectra: temporaries are refused.
+  ParticleFilter(ViewSphere&&, const ViewSpectra&, const ParticleFilterOptions& = {}) = delete;
+  ParticleFilter(const ViewSphere&, ViewSpectra&&, const ParticleFilterOptions& = {}) = delete;
+  ParticleFilter(ViewSphere&&, ViewSpectra&&, const ParticleFilterOptions& = {}) = delete;
   ~ParticleFilter();
   ParticleFilter(const ParticleFilter&) = delete;
   ParticleFilter& operator=(const ParticleFilter&) = delete;

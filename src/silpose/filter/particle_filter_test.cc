@@ -11,6 +11,7 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <type_traits>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
@@ -20,6 +21,11 @@ namespace silpose {
 namespace {
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+// The filter keeps references to its sphere and spectra: no temporaries.
+static_assert(std::is_constructible_v<ParticleFilter, const ViewSphere&, const ViewSpectra&>);
+static_assert(!std::is_constructible_v<ParticleFilter, ViewSphere&&, const ViewSpectra&>);
+static_assert(!std::is_constructible_v<ParticleFilter, const ViewSphere&, ViewSpectra&&>);
 
 // The true pose of one frame.
 struct TruePose {
