@@ -70,4 +70,19 @@ flags=$(pkg-config --cflags --libs silpose) || fail "pkg-config silpose"
   { cat "$work/pc-build.log"; fail "pkg-config build: $cxx pkgconfig_example.cc $flags"; }
 "$work/pkgconfig_example" | tee "$work/pc.out"
 grep -q "signature of 1000 radii" "$work/pc.out" || fail "pkgconfig_example output"
+echo "== python3 -c 'import silpose' against the installed package"
+module=$(find "$prefix" -name '_silpose*.so' | head -1)
+if [[ -n $module ]]; then
+  package_dir=$(dirname "$(dirname "$module")")
+  relative=${package_dir#"$prefix"/}
+  # Where Debian's python3 looks for this relative folder under /usr/local or /usr.
+  /usr/bin/python3 -c "import sys; sys.exit(0 if {'/usr/local/$relative', '/usr/$relative'} & set(sys.path) else 1)" ||
+    fail "the Python package is installed in $relative, where Debian's python3 does not look"
+  PYTHONPATH=$package_dir /usr/bin/python3 -c "import silpose; print(silpose.__file__)" > "$work/py.out" ||
+    fail "import silpose from the installed package"
+  grep -q "^$prefix/" "$work/py.out" || fail "import silpose did not load the installed package: $(cat "$work/py.out")"
+  echo "import silpose: $(cat "$work/py.out")"
+else
+  echo "(no Python package in this build)"
+fi
 echo "PASS in ${SECONDS} s"
