@@ -101,7 +101,7 @@ TEST_F(PoseOutputTest, PosesCsvHasTheHeaderAndOneRowPerFrame) {
   EXPECT_EQ(std::stod(first[2]), 0.975);
   EXPECT_EQ(first[8], "measured");
   EXPECT_EQ(first[10], "600");
-  const Rigid3& pose = *Frames()[0].camera_from_object;
+  const Rigid3 pose = *Frames()[0].camera_from_object;  // a copy: Frames() is a temporary
   for (int i = 0; i < 9; ++i) EXPECT_EQ(std::stod(first[12 + i]), pose.rotation(i / 3, i % 3));
   for (int i = 0; i < 3; ++i) EXPECT_EQ(std::stod(first[21 + i]), pose.translation[i]);
   EXPECT_EQ(std::stod(first[24]), 0.5);  // stage times, in the order of the header
@@ -146,7 +146,7 @@ TEST_F(PoseOutputTest, JsonLinesParseBack) {
   EXPECT_EQ(objects[0]["view_dir"].size(), 3u);
   EXPECT_EQ(objects[0]["time_match_ms"].get<double>(), 1.25);
   EXPECT_TRUE(objects[0]["time_refine_ms"].is_null());
-  const Rigid3& pose = *Frames()[0].camera_from_object;
+  const Rigid3 pose = *Frames()[0].camera_from_object;  // a copy: Frames() is a temporary
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) {
       EXPECT_EQ(objects[0]["pose"]["R"][r][c].get<double>(), pose.rotation(r, c));
@@ -184,7 +184,7 @@ TEST_F(PoseOutputTest, BopCsvWritesFramesWithAPoseInMillimetres) {
   const std::vector<std::string> translation = Split(fields[5], ' ');
   ASSERT_EQ(rotation.size(), 9u);
   ASSERT_EQ(translation.size(), 3u);
-  const Rigid3& pose = *Frames()[0].camera_from_object;
+  const Rigid3 pose = *Frames()[0].camera_from_object;  // a copy: Frames() is a temporary
   for (int i = 0; i < 9; ++i) EXPECT_EQ(std::stod(rotation[i]), pose.rotation(i / 3, i % 3));
   for (int i = 0; i < 3; ++i) {
     EXPECT_DOUBLE_EQ(std::stod(translation[i]), 1000.0 * pose.translation[i]);
