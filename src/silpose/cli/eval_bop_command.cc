@@ -214,7 +214,8 @@ void AddEvalBopCommand(CLI::App* eval) {
                     "Match every frame on its own instead of the particle filter");
   command->add_option("--particles", arguments->options.particles_per_object,
                       "Particles per object (default: the tracker's)");
-  command->add_option("--seed", arguments->options.seed, "Filter seed")->capture_default_str()
+  command->add_option("--seed", arguments->options.seed, "Filter seed")
+      ->capture_default_str()
       ->check(SeedNumber());
   command->add_option("--max-frames", arguments->max_frames,
                       "At most this many frames per instance (default all; 30 with --quick)");

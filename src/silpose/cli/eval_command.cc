@@ -28,7 +28,7 @@ struct SelfMatchArguments {
 }  // namespace
 
 std::vector<std::filesystem::path> DefaultEvalModels() {
-  // The shared reference set when run from a checkout beside it, else the sample models.
+  // The reference set when run from a checkout beside it, else the sample models.
   for (const char* candidate : {"../shared/models", "../../shared/models"}) {
     std::error_code error;
     if (std::filesystem::is_directory(candidate, error)) {
@@ -280,7 +280,8 @@ void AddTrackingCommand(CLI::App* eval) {
       "brute-force matching of every frame. Writes OUTDIR/tracking.csv (one row per particle "
       "count and a brute-force row), tracking_runs.csv, tracking.svg and tracking.png.");
   command->add_option("models", arguments->models,
-                      "Meshes of the database (default: ../shared/models when present, else the "
+                      "Meshes of the database (default: the reference models when the checkout "
+                      "sits beside them, else the "
                       "sample models)");
   command->add_option("-d,--database", arguments->database,
                       "Use this database (built from the same meshes, in order) instead of "
@@ -330,7 +331,8 @@ void AddEvalCommand(CLI::App& app) {
       "Render every database view again with a random roll at other image sizes and check that "
       "it matches its own view (or a neighbour) with the right roll.");
   self_match->add_option("models", arguments->models,
-                         "Meshes (default: ../shared/models when present, else the sample models)");
+                         "Meshes (default: the reference models when the checkout sits beside "
+                         "them, else the sample models)");
   self_match->add_option("-d,--database", arguments->database,
                          "Use this database (built from the same meshes, in order) instead of "
                          "building one");

@@ -96,7 +96,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
       "subtraction and tracked against the whole database; prints and writes the % of frames "
       "with the right object and the median rotation and translation errors.");
   command->add_option("models", arguments->models,
-                      "Meshes of the database (default: ../shared/models when present, else the "
+                      "Meshes of the database (default: the reference models when the checkout "
+                      "sits beside them, else the "
                       "sample models)");
   command->add_option("-d,--database", arguments->database,
                       "Database built from exactly these meshes (default: build one)");
@@ -115,7 +116,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
       ->add_option("--camera-noise", arguments->options.camera_noise, "Camera noise, grey levels")
       ->capture_default_str();
   command->add_option("--bg-method", arguments->bg_method, "mog2 or knn")->capture_default_str();
-  command->add_option("--seed", arguments->options.seed, "Seed")->capture_default_str()
+  command->add_option("--seed", arguments->options.seed, "Seed")
+      ->capture_default_str()
       ->check(SeedNumber());
   command->add_option("--views", arguments->views,
                       "Views per model when building (default 1000; 300 --quick)");

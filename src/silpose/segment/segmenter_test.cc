@@ -516,7 +516,8 @@ TEST(SegmenterTest, MaskFramesFollowDesignRuleAndThreshold) {
   EXPECT_EQ(IoU(result.mask, truth), 1.0);
   EXPECT_EQ(result.area_px, cv::countNonZero(truth));
 
-  // Any non-zero value of any channel is object (DESIGN.md); 16-bit and colour masks too.
+  // Any non-zero value of any channel is object (the mask rule in README.md); 16-bit and colour
+  // masks too.
   cv::Mat faint = truth / 255;  // values 0 / 1
   EXPECT_EQ(IoU(segmenter->Segment(faint).mask, truth), 1.0);
   cv::Mat colour = cv::Mat::zeros(truth.size(), CV_8UC3);

@@ -94,7 +94,8 @@ TEST(GroundTruth, WriteThenReadGivesExactlyTheSameFrames) {
 
 TEST(GroundTruth, ReadsTheDesignColumnsInAnyOrderWithExtras) {
   const TempFile file("design.csv");
-  // DESIGN.md's columns only, shuffled, with an extra one, CRLF line ends, 6 decimals.
+  // The required columns only (docs/conventions.md), shuffled, with an extra one, CRLF line ends, 6
+  // decimals.
   file.Write(
       "object,frame,note,roll_deg,view_x,view_y,view_z,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,"
       "tz\r\n"

@@ -304,7 +304,8 @@ TriangleMesh Sphere() {
   }
   for (int i = 0; i < kRings; ++i) {
     for (int j = 0; j < kSectors; ++j) {
-      const auto a = static_cast<uint32_t>(i * kSectors + j);  // (unsigned: clang refuses to narrow)
+      const auto a =
+          static_cast<uint32_t>(i * kSectors + j);  // (unsigned: clang refuses to narrow)
       const auto b = static_cast<uint32_t>(i * kSectors + (j + 1) % kSectors);
       mesh.triangles.push_back({a, a + kSectors, b + kSectors});
       mesh.triangles.push_back({a, b + kSectors, b});
