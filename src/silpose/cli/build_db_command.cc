@@ -100,6 +100,10 @@ void PrintDatabaseSummary(const ViewDatabase& database) {
                    model.name.c_str(), static_cast<int>(model.views.size()) - usable);
     }
   }
+  // Symmetries (docs/symmetry.md): poses of a model with rotations are reported in canonical form.
+  std::printf("symmetries (model frame):\n");
+  for (const ModelViews& model : database.models)
+    std::printf("  %-22s %s\n", model.name.c_str(), model.symmetry.Describe().c_str());
 }
 
 void RunBuildDb(const BuildDbArguments& arguments) {

@@ -4,6 +4,7 @@
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
+#include <oneapi/tbb/task_group.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <sstream>
 
 #include "silpose/geometry/view_frame.h"
+#include "silpose/mesh/mesh_symmetry.h"
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
 #include "silpose/util/progress.h"
@@ -113,14 +115,22 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
     }
     if (on_views_done) on_views_done(static_cast<int>(range.size()));
   };
+  // The symmetries come from the surface (mesh/mesh_symmetry.h), found beside the renderings.
+  const auto find_symmetry = [&] { model->symmetry = DetectSymmetry(mesh); };
   if (num_threads == 1) {
+    find_symmetry();
     constexpr int kChunk = 16;  // report progress as views are done
     for (int begin = 0; begin < num_records; begin += kChunk) {
       describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_records)));
     }
   } else {
     tbb::task_arena arena(WorkerThreads(num_threads));
-    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe); });
+    arena.execute([&] {
+      tbb::task_group group;
+      group.run(find_symmetry);
+      tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe);
+      group.wait();
+    });
   }
   if (std::none_of(model->views.begin(), model->views.end(),
                    [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {

@@ -67,6 +67,11 @@ TEST_F(DatabaseBuilderTest, BuildsEveryViewAndRecordsTheModel) {
   EXPECT_EQ(model.signatures.size(), 60u * shells * 180u);
   // The geometry is kept for refinement.
   EXPECT_EQ(model.mesh.triangles.size(), 20u);
+  // The L turns onto itself about no axis; the slab's mid-plane z = 0.35 is its one mirror.
+  EXPECT_FALSE(model.symmetry.HasRotations()) << model.symmetry.Describe();
+  ASSERT_EQ(model.symmetry.mirrors.size(), 1u) << model.symmetry.Describe();
+  EXPECT_NEAR(std::abs(model.symmetry.mirrors[0].normal.normalized().z()), 1.0, 1e-6);
+  EXPECT_NEAR(model.symmetry.mirrors[0].offset.z(), 0.35, 1e-6);
   for (const ViewRecord& view : model.views) {
     EXPECT_EQ(view.status, SignatureStatus::kOk);
     EXPECT_FALSE(view.flags & kSilhouetteTouchesBorder);

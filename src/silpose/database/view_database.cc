@@ -49,6 +49,26 @@ class Writer {
   std::string bytes_;
 };
 
+void WriteSymmetry(const ObjectSymmetry& symmetry, Writer* writer) {
+  Writer& out = *writer;
+  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.discrete.size()));
+  for (const Rigid3& d : symmetry.discrete) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) out.Put<double>(d.rotation(r, c));
+    for (int r = 0; r < 3; ++r) out.Put<double>(d.translation[r]);
+  }
+  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.continuous.size()));
+  for (const ContinuousSymmetry& c : symmetry.continuous) {
+    for (int r = 0; r < 3; ++r) out.Put<double>(c.axis[r]);
+    for (int r = 0; r < 3; ++r) out.Put<double>(c.offset[r]);
+  }
+  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.mirrors.size()));
+  for (const MirrorSymmetry& m : symmetry.mirrors) {
+    for (int r = 0; r < 3; ++r) out.Put<double>(m.normal[r]);
+    for (int r = 0; r < 3; ++r) out.Put<double>(m.offset[r]);
+  }
+}
+
 class Reader {
  public:
   Reader(std::string_view bytes, const std::string& source) : bytes_(bytes), source_(source) {}
@@ -214,7 +234,10 @@ int ViewDatabase::FindModel(const std::string& name) const {
   return -1;
 }
 
-std::string ViewDatabase::Serialize() const {
+std::string ViewDatabase::Serialize(uint32_t format_version) const {
+  if (format_version < kOldestReadableVersion || format_version > kFormatVersion)
+    ThrowError("cannot write database format version ", format_version, " (",
+               kOldestReadableVersion, " to ", kFormatVersion, ")");
   std::string error;
   if (!parameters.Check(&error)) ThrowError("cannot write database: ", error);
   const auto num_views = static_cast<uint32_t>(sphere.num_views());
@@ -223,7 +246,7 @@ std::string ViewDatabase::Serialize() const {
 
   Writer out;
   out.bytes().append(kMagic, sizeof(kMagic));
-  out.Put<uint32_t>(kFormatVersion);
+  out.Put<uint32_t>(format_version);
   out.Put<uint64_t>(0);  // payload size, patched below
 
   // Generation parameters.
@@ -282,6 +305,7 @@ std::string ViewDatabase::Serialize() const {
     for (const auto& t : model.mesh.triangles) {
       for (uint32_t index : t) out.Put<uint32_t>(index);
     }
+    if (format_version >= 3) WriteSymmetry(model.symmetry, &out);
     for (const ViewRecord& view : model.views) {
       out.Put<uint8_t>(static_cast<uint8_t>(view.status));
       out.Put<uint32_t>(view.flags);
@@ -333,9 +357,10 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   }
   uint32_t version = 0;
   std::memcpy(&version, bytes.data() + 8, sizeof(version));
-  if (version != kFormatVersion) {
-    ThrowError(source, ": database format version ", version, ", this silpose reads version ",
-               kFormatVersion, "; rebuild it with 'silpose build-db'");
+  if (version < kOldestReadableVersion || version > kFormatVersion) {
+    ThrowError(source, ": database format version ", version, ", this silpose reads versions ",
+               kOldestReadableVersion, " to ", kFormatVersion,
+               "; rebuild it with 'silpose build-db'");
   }
   uint64_t payload_size = 0;
   std::memcpy(&payload_size, bytes.data() + 12, sizeof(payload_size));
@@ -476,6 +501,41 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
           in.Fail("model '", model.name, "' has a triangle index out of range");
         t[i] = index;
       }
+    }
+    if (version >= 3) {
+      ObjectSymmetry& symmetry = model.symmetry;
+      constexpr uint32_t kMaxSymmetries = 256;
+      const auto num_discrete = in.Get<uint32_t>("discrete symmetry count");
+      if (num_discrete > kMaxSymmetries)
+        in.Fail("discrete symmetry count ", num_discrete, " out of range");
+      need(num_discrete, 12 * sizeof(double), "discrete symmetries");
+      symmetry.discrete.resize(num_discrete);
+      for (Rigid3& d : symmetry.discrete) {
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) d.rotation(r, c) = in.Get<double>("discrete symmetries");
+        for (int r = 0; r < 3; ++r) d.translation[r] = in.Get<double>("discrete symmetries");
+      }
+      const auto num_continuous = in.Get<uint32_t>("continuous symmetry count");
+      if (num_continuous > kMaxSymmetries)
+        in.Fail("continuous symmetry count ", num_continuous, " out of range");
+      need(num_continuous, 6 * sizeof(double), "continuous symmetries");
+      symmetry.continuous.resize(num_continuous);
+      for (ContinuousSymmetry& c : symmetry.continuous) {
+        for (int r = 0; r < 3; ++r) c.axis[r] = in.Get<double>("continuous symmetries");
+        for (int r = 0; r < 3; ++r) c.offset[r] = in.Get<double>("continuous symmetries");
+      }
+      const auto num_mirrors = in.Get<uint32_t>("mirror plane count");
+      if (num_mirrors > kMaxSymmetries)
+        in.Fail("mirror plane count ", num_mirrors, " out of range");
+      need(num_mirrors, 6 * sizeof(double), "mirror planes");
+      symmetry.mirrors.resize(num_mirrors);
+      for (MirrorSymmetry& m : symmetry.mirrors) {
+        for (int r = 0; r < 3; ++r) m.normal[r] = in.Get<double>("mirror planes");
+        for (int r = 0; r < 3; ++r) m.offset[r] = in.Get<double>("mirror planes");
+      }
+      std::string problem;
+      if (!symmetry.Check(&problem))
+        in.Fail("model '", model.name, "' has invalid symmetries: ", problem);
     }
     model.views_per_shell = static_cast<int>(num_views);
     model.views.resize(num_records);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "silpose/geometry/symmetry.h"
 #include "silpose/geometry/view_sphere.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/shape/polar_signature.h"
@@ -82,6 +83,9 @@ struct ModelViews {
   /// suffices to refine poses against the frame and to draw the model; empty in databases made by
   /// hand (tests).
   TriangleMesh mesh;
+  /// The model's symmetries, found by build-db from its surface (mesh/mesh_symmetry.h); none in
+  /// databases of format version 2, which did not store them.
+  ObjectSymmetry symmetry;
   /// One record per view and shell, shell-major: view v of shell s is views[s * N + v], N views.
   std::vector<ViewRecord> views;
   /// Signatures in the same order, M values each: (shell s, view v) is
@@ -126,8 +130,9 @@ int NearestShell(double apparent_radius, const std::vector<double>& distances_in
 
 class ViewDatabase {
  public:
-  /// Format version written by this build, and the only one it reads.
-  static constexpr uint32_t kFormatVersion = 2;
+  /// Format version written by this build. Version 2 (without symmetries) is read too.
+  static constexpr uint32_t kFormatVersion = 3;
+  static constexpr uint32_t kOldestReadableVersion = 2;
 
   DatabaseParameters parameters;
   ViewSphere sphere;
@@ -152,8 +157,9 @@ class ViewDatabase {
   /// over it. A device, FIFO, symbolic link or folder at `path` is refused, never replaced.
   /// Throws silpose::Error naming the file if it cannot be written.
   void Write(const std::filesystem::path& path) const;
-  /// Serialises to bytes (what Write writes).
-  std::string Serialize() const;
+  /// Serialises to bytes (what Write writes): format kFormatVersion, or version 2 (for older
+  /// silpose builds; without the symmetries). Throws silpose::Error for another version.
+  std::string Serialize(uint32_t format_version = kFormatVersion) const;
 
   /// Reads and checks a database file. Throws silpose::Error naming the file and the problem.
   static ViewDatabase Read(const std::filesystem::path& path);

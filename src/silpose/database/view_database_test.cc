@@ -122,6 +122,56 @@ TEST(ViewDatabaseFile, RoundTripKeepsEverything) {
   EXPECT_EQ(loaded.Serialize(), original.Serialize());
 }
 
+TEST(ViewDatabaseFile, SymmetriesRoundTripAndVersion2FilesReadWithoutThem) {
+  ViewDatabase original = SmallDatabase();
+  ObjectSymmetry& symmetry = original.models[1].symmetry;
+  symmetry.continuous.push_back(
+      {.axis = Eigen::Vector3d(0.0, 1.0, 0.0), .offset = Eigen::Vector3d(1.0, -2.0, 3.5)});
+  Rigid3 flip;
+  flip.rotation = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  flip.translation = Eigen::Vector3d(0.0, -4.0, 7.0);
+  symmetry.discrete.push_back(flip);
+  symmetry.mirrors.push_back(
+      {.normal = Eigen::Vector3d(0.0, 0.0, 1.0), .offset = Eigen::Vector3d(1.0, -2.0, 3.5)});
+  const ViewDatabase loaded = ViewDatabase::Deserialize(original.Serialize(), "test.db");
+  EXPECT_FALSE(loaded.models[0].symmetry.HasRotations());
+  const ObjectSymmetry& read = loaded.models[1].symmetry;
+  ASSERT_EQ(read.continuous.size(), 1u);
+  EXPECT_EQ(read.continuous[0].axis, symmetry.continuous[0].axis);
+  EXPECT_EQ(read.continuous[0].offset, symmetry.continuous[0].offset);
+  ASSERT_EQ(read.discrete.size(), 1u);
+  EXPECT_EQ(read.discrete[0].rotation, flip.rotation);
+  EXPECT_EQ(read.discrete[0].translation, flip.translation);
+  ASSERT_EQ(read.mirrors.size(), 1u);
+  EXPECT_EQ(read.mirrors[0].normal, symmetry.mirrors[0].normal);
+
+  // Version 2: everything but the symmetries.
+  const std::string old_bytes = original.Serialize(2);
+  uint32_t version = 0;
+  std::memcpy(&version, old_bytes.data() + 8, 4);
+  EXPECT_EQ(version, 2u);
+  const ViewDatabase old = ViewDatabase::Deserialize(old_bytes, "old.db");
+  EXPECT_FALSE(old.models[1].symmetry.HasRotations());
+  EXPECT_TRUE(old.models[1].symmetry.mirrors.empty());
+  EXPECT_EQ(old.models[1].signatures, original.models[1].signatures);
+  EXPECT_EQ(old.models[1].mesh.vertices, original.models[1].mesh.vertices);
+  EXPECT_THROW(original.Serialize(1), Error);
+  EXPECT_THROW(original.Serialize(ViewDatabase::kFormatVersion + 1), Error);
+}
+
+TEST(ViewDatabaseFile, InvalidSymmetriesAreRefused) {
+  ViewDatabase database = SmallDatabase();
+  Rigid3 not_a_rotation;
+  not_a_rotation.rotation(0, 0) = 2.0;  // a scaling
+  database.models[0].symmetry.discrete.push_back(not_a_rotation);
+  std::string message = ErrorOf(database.Serialize());
+  EXPECT_NE(message.find("model 'alpha' has invalid symmetries"), std::string::npos) << message;
+  database = SmallDatabase();
+  database.models[1].symmetry.continuous.push_back({.axis = Eigen::Vector3d::Zero()});
+  message = ErrorOf(database.Serialize());
+  EXPECT_NE(message.find("model 'beta' has invalid symmetries"), std::string::npos) << message;
+}
+
 TEST(ViewDatabaseShells, ChoosesTheShellNearestInInverseDistance) {
   const ViewDatabase database = SmallDatabase();
   // View 3: mean radius 23 px at 3 radii, 18 px at 10 radii (made-up records), both shells with

@@ -1,0 +1,115 @@
+#pragma once
+// Symmetries of rigid objects, poses modulo them, and nearest-point search.
+//
+// A symmetry S of an object is a model_from_model rigid motion (x -> R_S x + t_S, model frame)
+// that maps the object's surface onto itself, so that the object looks the same at the poses P
+// and P * S (x_cam = R (R_S x + t_S) + t). As in the BOP benchmark's models_info.json, two kinds
+// are kept:
+//  - discrete: finitely many rotations (a hex bolt: five turns of 60 degrees about its axis;
+//    the identity is implied and not listed);
+//  - continuous: every rotation about one axis (a bottle, a bearing).
+// Seen from the camera, P * S differs from P in the camera's direction in the model frame: the
+// camera direction d of P (object centre -> camera, model frame) becomes R_S^T d.
+//
+// Mirror planes (reflections x -> x - 2 ((x - o) . n) n) are kept beside them. A reflection is not
+// a motion, so it makes no two poses equivalent, but it makes two views look alike: under a
+// far-away (orthographic) camera, the silhouette of a mirror-symmetric object seen from direction
+// d is the silhouette seen from -M d (M the plane's reflection of directions), turned in the
+// image. Those "twin" views cannot be told apart by the outline alone.
+
+#include <Eigen/Core>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "silpose/geometry/rigid3.h"
+
+namespace silpose {
+
+/// A continuous rotational symmetry: rotation by any angle about the line through `offset` with
+/// direction `axis` (model frame, model units; axis need not be normalised, must be non-zero).
+struct ContinuousSymmetry {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+};
+
+/// A mirror plane: the plane through `offset` with normal `normal` (model frame, non-zero).
+struct MirrorSymmetry {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+};
+
+/// Every symmetry found for (or given to) one object.
+struct ObjectSymmetry {
+  /// Proper rotations other than the identity, model_from_model.
+  std::vector<Rigid3> discrete;
+  /// At most one in practice (an object with two continuous axes is a sphere).
+  std::vector<ContinuousSymmetry> continuous;
+  std::vector<MirrorSymmetry> mirrors;
+
+  /// Whether some pose has an equivalent other than itself (a discrete or continuous symmetry).
+  bool HasRotations() const { return !discrete.empty() || !continuous.empty(); }
+  /// "none", or e.g. "continuous about (0, 1, 0); 1 discrete rotation (180 deg about (1, 0, 0));
+  /// 2 mirror planes" (axes in the model frame, unit length).
+  std::string Describe() const;
+  /// False (with the reason) for a non-rotation or non-finite transform, a zero axis or normal,
+  /// or more than 256 entries of a kind.
+  bool Check(std::string* error = nullptr) const;
+};
+
+/// The symmetry set of an object: the identity, the discrete symmetries (model_from_model) and,
+/// for each continuous symmetry, rotations about its axis sampled so that a point at distance
+/// diameter / 2 from the axis moves at most `max_step_fraction` of the diameter between
+/// consecutive samples (ceil(pi / max_step_fraction) samples per turn; BOP uses 0.01), combined
+/// with every discrete one (continuous after discrete). Throws silpose::Error for a zero axis, a
+/// step fraction outside (0, 1] or more than 100000 transforms.
+std::vector<Rigid3> SymmetryTransforms(std::span<const Rigid3> discrete,
+                                       std::span<const ContinuousSymmetry> continuous,
+                                       double max_step_fraction = 0.01);
+/// The same for an ObjectSymmetry (its mirrors play no part).
+std::vector<Rigid3> SymmetryTransforms(const ObjectSymmetry& symmetry,
+                                       double max_step_fraction = 0.01);
+
+/// Rotation error modulo symmetry, degrees: min over S in `transforms` of the angle of
+/// (R_est R_S)^T R_true. `transforms` from SymmetryTransforms (empty = identity only); with a
+/// sampled continuous symmetry the result is within half a sample step of the exact minimum.
+double RotationErrorModuloSymmetryDeg(const Eigen::Matrix3d& estimated,
+                                      const Eigen::Matrix3d& truth,
+                                      std::span<const Rigid3> transforms);
+
+/// The paper's view error modulo symmetry: min over S in `transforms` of |R_S^T d_est - d_true|
+/// with the unit view directions (object centre -> camera, model frame), in [0, 2].
+double ViewErrorModuloSymmetry(const Eigen::Vector3d& estimated, const Eigen::Vector3d& truth,
+                               std::span<const Rigid3> transforms);
+
+/// The symmetry S that takes a camera direction `view_dir_in_object` (non-zero, model frame) to
+/// its canonical form R_S^T d: among the equivalent directions, the one nearest a fixed reference
+/// direction of the object (for a continuous symmetry about axis a: the half-plane spanned by a
+/// and a fixed direction perpendicular to it, on the side of that direction). The canonical pose
+/// of P is P * S. The identity for an object without rotations.
+Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object, const ObjectSymmetry& symmetry);
+
+/// Nearest-neighbour search among fixed 3D points (a k-d tree).
+class NearestPointIndex {
+ public:
+  /// Indexes the columns of `points` (copied). Throws silpose::Error if there are none.
+  explicit NearestPointIndex(const Eigen::Matrix3Xd& points);
+  /// Distance from `query` to the nearest indexed point (same units as the points).
+  double NearestDistance(const Eigen::Vector3d& query) const;
+  int size() const { return static_cast<int>(points_.cols()); }
+
+ private:
+  struct Node {
+    int begin = 0, end = 0;  // leaf range in points_ (reordered)
+    int left = -1, right = -1;
+    int axis = 0;
+    double split = 0.0;
+  };
+  int Build(int begin, int end);
+  void Search(int node, const Eigen::Vector3d& query, double* best_squared) const;
+
+  Eigen::Matrix3Xd points_;
+  std::vector<Node> nodes_;
+};
+
+}  // namespace silpose

@@ -1,0 +1,139 @@
+#include "silpose/geometry/symmetry.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "silpose/geometry/view_frame.h"
+
+namespace silpose {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+Rigid3 Turn(const Eigen::Vector3d& axis, double angle, const Eigen::Vector3d& through) {
+  Rigid3 s;
+  s.rotation = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  s.translation = through - s.rotation * through;
+  return s;
+}
+
+Eigen::Matrix3d RandomRotation(std::mt19937* rng) {
+  std::normal_distribution<double> normal;
+  Eigen::Quaterniond q(normal(*rng), normal(*rng), normal(*rng), normal(*rng));
+  return q.normalized().toRotationMatrix();
+}
+
+ObjectSymmetry Bearing() {
+  // Continuous about y through (0, 1, 0), with a flip about x.
+  ObjectSymmetry s;
+  s.continuous.push_back({.axis = Eigen::Vector3d::UnitY(), .offset = Eigen::Vector3d(0, 1, 0)});
+  s.discrete.push_back(Turn(Eigen::Vector3d::UnitX(), kPi, Eigen::Vector3d(0, 1, 0)));
+  return s;
+}
+
+ObjectSymmetry HexBolt() {
+  ObjectSymmetry s;
+  for (int k = 1; k < 6; ++k)
+    s.discrete.push_back(Turn(Eigen::Vector3d::UnitZ(), kPi * k / 3.0, Eigen::Vector3d::Zero()));
+  return s;
+}
+
+TEST(Symmetry, ErrorsModuloSymmetryIgnoreTheSymmetryAndOnlyIt) {
+  std::mt19937 rng(3);
+  const ObjectSymmetry bolt = HexBolt();
+  const std::vector<Rigid3> transforms = SymmetryTransforms(bolt);
+  ASSERT_EQ(transforms.size(), 6u);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Matrix3d truth = RandomRotation(&rng);
+    // An estimate off by a symmetry and 4 degrees about another axis.
+    const Eigen::Matrix3d small =
+        Eigen::AngleAxisd(4.0 * kPi / 180.0, Eigen::Vector3d(1, 1, 0).normalized())
+            .toRotationMatrix();
+    const Eigen::Matrix3d estimated =
+        small * truth * transforms[static_cast<size_t>(1 + trial % 5)].rotation.transpose();
+    EXPECT_NEAR(RotationErrorModuloSymmetryDeg(estimated, truth, transforms), 4.0, 1e-6);
+    EXPECT_GT(RotationErrorModuloSymmetryDeg(estimated, truth, {}), 50.0);
+  }
+  // The view error: a view turned by 120 degrees about the bolt's axis is the same view.
+  const Eigen::Vector3d view = Eigen::Vector3d(0.6, 0.0, 0.8);
+  const Eigen::Vector3d turned = transforms[2].rotation * view;
+  EXPECT_NEAR(ViewErrorModuloSymmetry(turned, view, transforms), 0.0, 1e-9);
+  EXPECT_GT(ViewErrorModuloSymmetry(turned, view, {}), 0.9);
+  // A view turned by 30 degrees is not.
+  const Eigen::Vector3d off =
+      Eigen::AngleAxisd(kPi / 6.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * view;
+  EXPECT_NEAR(ViewErrorModuloSymmetry(off, view, transforms), (off - view).norm(), 1e-9);
+}
+
+TEST(Symmetry, ContinuousSamplingBoundsTheError) {
+  const std::vector<Rigid3> transforms = SymmetryTransforms(Bearing(), 0.01);
+  // ceil(pi / 0.01) = 315 samples per turn, times the identity and the flip.
+  EXPECT_EQ(transforms.size(), 630u);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(0.0, 2.0 * kPi);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Matrix3d truth = RandomRotation(&rng);
+    const Eigen::Matrix3d estimated =
+        truth * Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    // Half a step of 360 / 315 degrees at most.
+    EXPECT_LT(RotationErrorModuloSymmetryDeg(estimated, truth, transforms), 0.58);
+  }
+}
+
+TEST(Symmetry, CanonicalPosesAgreeForEquivalentPosesAndLookTheSame) {
+  std::mt19937 rng(11);
+  for (const ObjectSymmetry& symmetry : {Bearing(), HexBolt()}) {
+    const std::vector<Rigid3> transforms = SymmetryTransforms(symmetry, 0.002);
+    for (int trial = 0; trial < 30; ++trial) {
+      const Eigen::Vector3d view = Eigen::Vector3d::Random().normalized();
+      const Rigid3 pose =
+          CameraFromObjectAtView(view, 37.0 * trial, 5.0, Eigen::Vector3d(0.0, 1.0, 0.0));
+      const Rigid3 s = CanonicalSymmetry(view, symmetry);
+      const Rigid3 canonical = pose * s;
+      // The canonical pose is equivalent: S is one of the object's symmetries (up to sampling).
+      double nearest = 1e9;
+      for (const Rigid3& t : transforms) {
+        nearest = std::min(nearest, (t.rotation - s.rotation).norm() +
+                                        (t.translation - s.translation).norm());
+      }
+      EXPECT_LT(nearest, 0.02);
+      // An equivalent pose (a random symmetry applied) has the same canonical form.
+      const Rigid3& other = transforms[rng() % transforms.size()];
+      const Rigid3 equivalent = pose * other;
+      const Eigen::Vector3d equivalent_view = other.rotation.transpose() * view;
+      const Rigid3 canonical_again = equivalent * CanonicalSymmetry(equivalent_view, symmetry);
+      EXPECT_LT((canonical_again.rotation - canonical.rotation).norm(), 1e-6);
+      EXPECT_LT((canonical_again.translation - canonical.translation).norm(), 1e-6);
+    }
+  }
+  // No symmetry: the identity.
+  const Rigid3 none = CanonicalSymmetry(Eigen::Vector3d(1, 2, 3), ObjectSymmetry());
+  EXPECT_TRUE(none.rotation.isIdentity());
+}
+
+TEST(Symmetry, DescribeAndCheck) {
+  EXPECT_EQ(ObjectSymmetry().Describe(), "none");
+  const std::string bearing = Bearing().Describe();
+  EXPECT_NE(bearing.find("continuous about (0, 1, 0)"), std::string::npos) << bearing;
+  EXPECT_NE(bearing.find("1 discrete rotation (180 deg about (1, 0, 0))"), std::string::npos)
+      << bearing;
+  std::string problem;
+  EXPECT_TRUE(Bearing().Check(&problem)) << problem;
+  ObjectSymmetry bad = HexBolt();
+  bad.discrete[0].rotation(0, 0) = 2.0;
+  EXPECT_FALSE(bad.Check(&problem));
+  EXPECT_NE(problem.find("not a finite rotation"), std::string::npos);
+  ObjectSymmetry zero;
+  zero.continuous.push_back({.axis = Eigen::Vector3d::Zero()});
+  EXPECT_FALSE(zero.Check(&problem));
+  ObjectSymmetry mirror;
+  mirror.mirrors.push_back({.normal = Eigen::Vector3d(0, 0, std::nan(""))});
+  EXPECT_FALSE(mirror.Check(&problem));
+}
+
+}  // namespace
+}  // namespace silpose
