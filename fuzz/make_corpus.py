@@ -132,6 +132,120 @@ def cameras(synth_folder):
     put("camera_file", "camera.json", b"\x03" + json.dumps(js, indent=1).encode())
 
 
+# Camera files as OpenCV's calibration sample writes them (more keys around the camera: nested,
+# flow and empty maps and sequences, strings, comments, non-finite numbers, base64 data), and the
+# file that made OpenCV's YAML parser loop forever when it read camera files.
+def camera_seeds():
+    yml = """%YAML:1.0
+---
+calibration_time: "Mon Jan  1 10:00:00 2024"
+nframes: 3
+image_width: 64
+image_height: 48
+# flags: +fix_aspectRatio
+flags: 2
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 6.0123456789012344e+01, 0., 32., 0., 60., 24., 0., 0.,
+       1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 5
+   cols: 1
+   dt: d
+   data: [ -1.0000000000000001e-01, 1.0000000000000000e-02, 0., 0., 0. ]
+avg_reprojection_error: 3.1234000000000001e-01
+per_view_reprojection_errors: !!opencv-matrix
+   rows: 3
+   cols: 1
+   dt: f
+   data: [ 1.00000001e-01, 2.00000003e-01, 3.00000012e-01 ]
+image_points: !!opencv-matrix
+   rows: 1
+   cols: 2
+   dt: "2f"
+   data: !!binary |
+      MmYgICAgICAgICAgICAgICAgICAgICAgAADAPwAAIEAAAMA/AAAgQA==
+strings:
+   - a b
+   - "x:y # \\"q\\\\\\'"
+   - ""
+flow: { a:1, b:[ 1, 2 ] }
+views:
+   -
+      id: 1
+      rvec: [ 0., 0., 0. ]
+   -
+      []
+nested:
+   inner:
+      deep: {}
+values: [ .Nan, -.Inf, 1.0000000000000000e-300 ] # a comment
+"""
+    put("camera_file", "calibration_sample.yml", b"\x00" + yml.encode())
+    xml = """<?xml version="1.0"?>
+<opencv_storage>
+<calibration_time>"Mon Jan  1 10:00:00 2024"</calibration_time>
+<image_width>64</image_width>
+<image_height>48</image_height>
+<!-- flags: +fix_aspectRatio -->
+<camera_matrix type_id="opencv-matrix">
+  <rows>3</rows>
+  <cols>3</cols>
+  <dt>d</dt>
+  <data>
+    6.0123456789012344e+01 0. 32. 0. 60. 24. 0. 0. 1.</data></camera_matrix>
+<image_points type_id="opencv-matrix">
+  <rows>1</rows>
+  <cols>2</cols>
+  <dt>"2f"</dt>
+  <data type_id="binary">
+    MmYgICAgICAgICAgICAgICAgICAgICAgAADAPwAAIEAAAMA/AAAgQA==
+    </data></image_points>
+<strings>
+  "a b" x:y "&quot;q\\&apos;&lt;&#x09;" ""</strings>
+<views>
+  <_>
+    <id>1</id>
+    <rvec>
+      0. 0. 0.</rvec></_>
+  <_></_></views>
+<values>.Nan -.Inf 1.0000000000000000e-300</values> <!-- a comment -->
+</opencv_storage>
+"""
+    put("camera_file", "calibration_sample.xml", b"\x02" + xml.encode())
+    js = """{
+    "calibration_time": "Mon Jan  1 10:00:00 2024",
+    "image_width": 64,
+    "image_height": 48
+    // flags: +fix_aspectRatio
+    ,
+    "camera_matrix": {
+        "type_id": "opencv-matrix",
+        "rows": 3,
+        "cols": 3,
+        "dt": "d",
+        "data": [ 6.0123456789012344e+01, 0.0, 32.0, 0.0, 60.0, 24.0, 0.0,
+            0.0, 1.0 ]
+    },
+    "image_points": {
+        "type_id": "opencv-matrix",
+        "rows": 1,
+        "cols": 2,
+        "dt": "2f",
+        "data": "$base64$MmYgICAgICAgICAgICAgICAgICAgICAgAADAPwAAIEAAAMA/AAAgQA=="
+    },
+    "strings": [ "a b", "x:y \\\"q\\\\\\'", "" ],
+    "views": [ { "id": 1, "rvec": [ 0.0, 0.0, 0.0 ] }, [], {} ],
+    "values": [ .Nan, -.Inf, 1.0000000000000000e-300 ] // a comment
+}
+"""
+    put("camera_file", "calibration_sample.json", b"\x03" + js.encode())
+    put("camera_file", "opencv_yaml_loop.yml",
+        b"\x00%YAML:1.0\n" + b"-" * 57 + b"map-----\nim--- ]\n")
+
+
 # --- AVI: the MJPEG video of `silpose synth --video`, and uncompressed ones written here
 def chunk(fourcc, data):
     return fourcc + struct.pack("<I", len(data)) + data + (b"\0" if len(data) % 2 else b"")
@@ -260,6 +374,7 @@ def main():
                        check=True, stdout=subprocess.DEVNULL)
         meshes()
         cameras(synth)
+        camera_seeds()
         avis(synth)
         images(synth)
         masks()
