@@ -66,13 +66,14 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesTheDocumentedSummary) {
             "kind,mask_quality,tracker,sequences,frames,right_object_percent,no_estimate_frames,"
             "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
             "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
-            "all_right_object_percent,all_rotation_median_deg");
+            "all_right_object_percent,all_rotation_median_deg,rotation_median_symmetric_deg,"
+            "view_error_symmetric_mean");
   // handheld, orbit-3, orbit-7, orbit-15 x perfect, threshold x filter, brute-force.
   ASSERT_EQ(summary.size(), 1u + 4u * 2u * 2u);
   std::set<std::string> kinds;
   for (size_t i = 1; i < summary.size(); ++i) {
     const std::vector<std::string> cells = Cells(summary[i]);
-    ASSERT_EQ(cells.size(), 17u) << summary[i];
+    ASSERT_EQ(cells.size(), 19u) << summary[i];
     kinds.insert(cells[0]);
     // Two models (bunny, hand), one sequence each: 40 - 10 hand-held frames, 30 - 10 per orbit.
     EXPECT_EQ(cells[3], "2");

@@ -56,7 +56,7 @@ TEST_F(CliEvalTest, TrackingQuickWritesTablesAndFigures) {
   ASSERT_EQ(table.size(), 4u);
   EXPECT_EQ(table[0],
             "method,particles,runs,frames,pose_error_mean,pose_error_std,right_object_percent,"
-            "ms_per_frame_mean");
+            "ms_per_frame_mean,symmetric_pose_error_mean,symmetric_pose_error_std");
   EXPECT_EQ(table[1].rfind("particle-filter,20,4,240,", 0), 0u) << table[1];
   EXPECT_EQ(table[2].rfind("particle-filter,60,4,240,", 0), 0u) << table[2];
   EXPECT_EQ(table[3].rfind("brute-force,0,2,120,", 0), 0u) << table[3];

@@ -231,17 +231,19 @@ void RunTrackingEval(const TrackingArguments& arguments) {
       result.flown_models.size(), result.num_models, Joined(result.flown_models).c_str(),
       result.frames_per_flight, options.orbit.step_deg, database.num_views(),
       options.particle_counts.size(), options.repeats);
-  std::printf("%-16s %9s %5s %7s %10s %9s %8s %9s\n", "method", "particles", "runs", "frames",
-              "pose_error", "std", "object%", "ms/frame");
+  std::printf("%-16s %9s %5s %7s %10s %9s %10s %8s %9s\n", "method", "particles", "runs", "frames",
+              "pose_error", "std", "mod_sym", "object%", "ms/frame");
   for (const TrackingRow& row : result.rows) {
     const TrackingStats& s = row.stats;
-    std::printf("%-16s %9s %5d %7d %10.4f %9.4f %8.2f %9.3f\n", row.method.c_str(),
+    std::printf("%-16s %9s %5d %7d %10.4f %9.4f %10.4f %8.2f %9.3f\n", row.method.c_str(),
                 row.particles > 0 ? std::to_string(row.particles).c_str() : "-", s.runs, s.frames,
-                s.pose_error_mean, s.pose_error_std, s.right_object_percent(), s.ms_per_frame_mean);
+                s.pose_error_mean, s.pose_error_std, s.symmetric_pose_error_mean,
+                s.right_object_percent(), s.ms_per_frame_mean);
   }
   std::printf(
       "pose error: distance between estimated and true unit view directions, every frame "
-      "(wrong-object frames included)\n");
+      "(wrong-object frames included); mod_sym: the same modulo the model's symmetry "
+      "(docs/symmetry.md)\n");
   std::printf("%-34s %18s %18s\n", "paper comparison", "ours", "paper");
   if (const TrackingRow* brute = result.BruteForce()) {
     std::printf("%-34s %10.3f +- %5.3f %10.3f +- %5.3f\n", "brute force: pose error",

@@ -275,6 +275,16 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
                   accuracy.rotation_deg.median, 100.0 * accuracy.translation_relative.median);
     }
     std::printf("\n");
+    const bool symmetric = accuracy.view_error_symmetric.mean < accuracy.view_error.mean ||
+                           accuracy.rotation_deg_symmetric.median < accuracy.rotation_deg.median;
+    if (symmetric) {
+      // An object that turns onto itself: its pose is known only up to that (docs/symmetry.md).
+      std::printf("modulo the object's symmetry: pose error mean %.3f median %.3f",
+                  accuracy.view_error_symmetric.mean, accuracy.view_error_symmetric.median);
+      if (accuracy.rotation_deg_symmetric.count > 0)
+        std::printf(", rotation error median %.1f deg", accuracy.rotation_deg_symmetric.median);
+      std::printf("\n");
+    }
     for (const TrackReport::ObjectChange& change : report.ObjectChanges()) {
       if (change.delay >= 0) {
         std::printf("the object changes at frame %d: identified %d frames later\n", change.frame,
@@ -393,9 +403,7 @@ void RunTrackJob(const TrackJob& arguments) {
   Tracker tracker(database, camera, options);
 
   const std::vector<GroundTruthFrame> truth = ChooseGroundTruth(arguments);
-  std::vector<std::string> names;
-  for (const ModelViews& model : database.models) names.push_back(model.name);
-  TrackReport report(names);
+  TrackReport report(database);
 
   // Every output is checked and locked before the first is created; if one cannot be opened,
   // those created are removed again.
@@ -594,6 +602,9 @@ void AddTrackCommand(CLI::App& app) {
       ->check(SeedNumber());
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
+  command->add_flag("!--no-canonical-poses", arguments->tracker.canonical_poses,
+                    "Report the poses of symmetric objects as matched, not in the canonical form "
+                    "of docs/symmetry.md");
   command->add_flag("!--no-on-axis", arguments->tracker.on_axis_matching,
                     "Match the raw silhouette instead of the on-axis, undistorted one");
   static const std::map<std::string, MotionModel> kMotionModels = {

@@ -96,6 +96,8 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
   }
   const SyntheticSequence sequence({mesh}, sequence_options);
   const Eigen::Vector3d centre = mesh.Centre();
+  const std::vector<Rigid3> symmetries =
+      SymmetryTransforms(database.models[static_cast<size_t>(task.model)].symmetry);
 
   const size_t num_trackers = options.trackers.size();
   std::vector<std::unique_ptr<Tracker>> trackers;
@@ -140,9 +142,14 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
       f.object = result.object;
       f.right_object = result.object == task.model;
       f.rotation_error_deg = f.translation_error_percent = f.view_error = f.roll_error_deg = kNaN;
+      f.rotation_error_symmetric_deg = f.view_error_symmetric = kNaN;
+      const std::span<const Rigid3> symmetric =
+          f.right_object ? std::span<const Rigid3>(symmetries) : std::span<const Rigid3>();
       if (result.view_dir_in_object) {
         f.has_view = true;
         f.view_error = ViewDirectionError(*result.view_dir_in_object, path.view_dir_in_object);
+        f.view_error_symmetric =
+            ViewErrorModuloSymmetry(*result.view_dir_in_object, path.view_dir_in_object, symmetric);
         if (f.right_object && std::isfinite(result.roll_deg)) {
           const double carried =
               TransportRoll(*result.view_dir_in_object, result.roll_deg, path.view_dir_in_object);
@@ -153,6 +160,8 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
         f.has_pose = true;
         f.rotation_error_deg =
             RotationErrorDeg(result.camera_from_object->rotation, truth.rotation);
+        f.rotation_error_symmetric_deg = RotationErrorModuloSymmetryDeg(
+            result.camera_from_object->rotation, truth.rotation, symmetric);
         f.translation_error_percent =
             100.0 * (result.camera_from_object->translation - truth.translation).norm() /
             true_distance;
@@ -269,7 +278,7 @@ std::string HandheldRun::KindLabel() const {
 
 HandheldStats ComputeHandheldStats(const std::vector<const HandheldFrame*>& frames) {
   HandheldStats stats;
-  std::vector<double> rotation, translation, view, roll;
+  std::vector<double> rotation, translation, view, roll, rotation_symmetric, view_symmetric;
   for (const HandheldFrame* f : frames) {
     ++stats.frames;
     stats.right_object += f->right_object;
@@ -278,8 +287,12 @@ HandheldStats ComputeHandheldStats(const std::vector<const HandheldFrame*>& fram
     if (f->has_pose) {
       rotation.push_back(f->rotation_error_deg);
       translation.push_back(f->translation_error_percent);
+      rotation_symmetric.push_back(f->rotation_error_symmetric_deg);
     }
-    if (f->has_view) view.push_back(f->view_error);
+    if (f->has_view) {
+      view.push_back(f->view_error);
+      view_symmetric.push_back(f->view_error_symmetric);
+    }
     if (std::isfinite(f->roll_error_deg)) roll.push_back(f->roll_error_deg);
   }
   stats.rotation_median_deg = Median(rotation);
@@ -288,6 +301,8 @@ HandheldStats ComputeHandheldStats(const std::vector<const HandheldFrame*>& fram
   stats.translation_median_percent = Median(translation);
   stats.view_error_mean = Mean(view);
   stats.roll_median_deg = Median(roll);
+  stats.rotation_median_symmetric_deg = Median(rotation_symmetric);
+  stats.view_error_symmetric_mean = Mean(view_symmetric);
   return stats;
 }
 
@@ -568,7 +583,8 @@ const char* HandheldSummaryHeader() {
   return "kind,mask_quality,tracker,sequences,frames,right_object_percent,no_estimate_frames,"
          "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
          "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
-         "all_right_object_percent,all_rotation_median_deg";
+         "all_right_object_percent,all_rotation_median_deg,rotation_median_symmetric_deg,"
+         "view_error_symmetric_mean";
 }
 
 const char* HandheldFramesHeader() {
@@ -594,7 +610,9 @@ void WriteHandheldSummary(const std::filesystem::path& path,
         << Cell(s.rotation_median_deg) << ',' << Cell(s.rotation_mean_deg) << ','
         << Cell(s.rotation_p90_deg) << ',' << Cell(s.translation_median_percent) << ','
         << Cell(s.view_error_mean) << ',' << Cell(s.roll_median_deg) << ',' << row.all.frames << ','
-        << Cell(row.all.RightObjectPercent()) << ',' << Cell(row.all.rotation_median_deg) << '\n';
+        << Cell(row.all.RightObjectPercent()) << ',' << Cell(row.all.rotation_median_deg) << ','
+        << Cell(s.rotation_median_symmetric_deg) << ',' << Cell(s.view_error_symmetric_mean)
+        << '\n';
   }
   CloseCsv(csv, path);
 }

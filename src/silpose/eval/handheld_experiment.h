@@ -134,6 +134,10 @@ struct HandheldFrame {
   double translation_error_percent = 0.0;
   double view_error = 0.0;
   double roll_error_deg = 0.0;
+  /// rotation_error_deg and view_error modulo the model's symmetry (geometry/symmetry.h; equal
+  /// to them for a model without rotations; the view error only for the right object).
+  double rotation_error_symmetric_deg = 0.0;
+  double view_error_symmetric = 0.0;
   /// Tracker::Process time, ms (inflated when threads share the cores).
   double time_ms = 0.0;
 };
@@ -174,6 +178,9 @@ struct HandheldStats {
   double view_error_mean = 0.0;
   /// Over right-object frames with a view; NaN without any.
   double roll_median_deg = 0.0;
+  /// rotation_median_deg and view_error_mean modulo the model's symmetry.
+  double rotation_median_symmetric_deg = 0.0;
+  double view_error_symmetric_mean = 0.0;
 
   double RightObjectPercent() const { return frames > 0 ? 100.0 * right_object / frames : 0.0; }
 };

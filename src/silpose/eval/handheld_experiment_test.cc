@@ -297,7 +297,7 @@ TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   const std::vector<std::string> summary = ReadLines(folder / "summary.csv");
   ASSERT_EQ(summary.size(), 1u + result_->summary.size());
   EXPECT_EQ(summary[0], HandheldSummaryHeader());
-  for (const std::string& line : summary) EXPECT_EQ(CountCells(line), 17u) << line;
+  for (const std::string& line : summary) EXPECT_EQ(CountCells(line), 19u) << line;
   const std::vector<std::string> frames = ReadLines(folder / "frames.csv");
   size_t num_frames = 0;
   for (const HandheldRun& run : result_->runs) num_frames += run.frames.size();

@@ -32,10 +32,12 @@ struct Flight {
   int model = -1;
   std::vector<cv::Mat> masks;
   std::vector<Eigen::Vector3d> true_view_dirs;
+  // The flown model's symmetry transforms (geometry/symmetry.h), for the error modulo symmetry.
+  std::vector<Rigid3> symmetries;
 };
 
-Flight RenderFlight(const TriangleMesh& mesh, int model, const TrackingExperimentOptions& options,
-                    int num_threads) {
+Flight RenderFlight(const TriangleMesh& mesh, int model, const ObjectSymmetry& symmetry,
+                    const TrackingExperimentOptions& options, int num_threads) {
   SequenceOptions sequence_options;
   sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
   sequence_options.trajectory.num_frames = options.frames;
@@ -43,6 +45,7 @@ Flight RenderFlight(const TriangleMesh& mesh, int model, const TrackingExperimen
   const SyntheticSequence sequence({mesh}, sequence_options);
   Flight flight;
   flight.model = model;
+  flight.symmetries = SymmetryTransforms(symmetry);
   flight.masks.resize(static_cast<size_t>(options.frames));
   for (const TrajectoryFrame& frame : sequence.trajectory()) {
     flight.true_view_dirs.push_back(frame.view_dir_in_object);
@@ -60,6 +63,18 @@ Flight RenderFlight(const TriangleMesh& mesh, int model, const TrackingExperimen
 
 double PoseError(const ViewDatabase& database, int view, const Eigen::Vector3d& truth) {
   return (database.sphere.directions[static_cast<size_t>(view)] - truth).norm();
+}
+
+// The frame's errors: the paper's, and modulo the flown model's symmetry when the estimate names
+// that model (another object's view is as wrong with or without the symmetry).
+void SetPoseErrors(const ViewDatabase& database, const Flight& flight, size_t k,
+                   TrackingFrameResult* frame) {
+  frame->pose_error = PoseError(database, frame->view, flight.true_view_dirs[k]);
+  frame->pose_error_symmetric =
+      frame->object == flight.model
+          ? ViewErrorModuloSymmetry(database.sphere.directions[static_cast<size_t>(frame->view)],
+                                    flight.true_view_dirs[k], flight.symmetries)
+          : frame->pose_error;
 }
 
 void RunFilter(const ViewDatabase& database, const ViewSpectra& spectra, const Flight& flight,
@@ -84,8 +99,7 @@ void RunFilter(const ViewDatabase& database, const ViewSpectra& spectra, const F
     frame.object = estimate.object;
     frame.view = estimate.view;
     frame.score = estimate.score;
-    if (frame.view >= 0)
-      frame.pose_error = PoseError(database, frame.view, flight.true_view_dirs[k]);
+    if (frame.view >= 0) SetPoseErrors(database, flight, k, &frame);
   }
 }
 
@@ -102,34 +116,39 @@ void RunBruteForceFrame(const ViewDatabase& database, ViewMatcher& matcher, cons
     frame->object = top.front().model;
     frame->view = top.front().view;
     frame->score = top.front().score;
-    frame->pose_error = PoseError(database, frame->view, flight.true_view_dirs[k]);
+    SetPoseErrors(database, flight, k, frame);
   }
 }
 
 TrackingStats Aggregate(const std::vector<const TrackingRun*>& runs) {
   TrackingStats stats;
-  double sum = 0.0, time = 0.0;
+  double sum = 0.0, time = 0.0, symmetric_sum = 0.0;
   for (const TrackingRun* run : runs) {
     ++stats.runs;
     for (const TrackingFrameResult& f : run->frames) {
       ++stats.frames;
       stats.right_object_frames += f.object == run->model;
       sum += f.pose_error;
+      symmetric_sum += f.pose_error_symmetric;
       time += f.time_ms;
       stats.pose_error_max = std::max(stats.pose_error_max, f.pose_error);
     }
   }
   if (stats.frames == 0) return stats;
   stats.pose_error_mean = sum / stats.frames;
+  stats.symmetric_pose_error_mean = symmetric_sum / stats.frames;
   stats.ms_per_frame_mean = time / stats.frames;
   // Second pass for the spread (no cancellation).
-  double squares = 0.0;
+  double squares = 0.0, symmetric_squares = 0.0;
   for (const TrackingRun* run : runs) {
     for (const TrackingFrameResult& f : run->frames) {
       squares += (f.pose_error - stats.pose_error_mean) * (f.pose_error - stats.pose_error_mean);
+      const double d = f.pose_error_symmetric - stats.symmetric_pose_error_mean;
+      symmetric_squares += d * d;
     }
   }
   stats.pose_error_std = std::sqrt(squares / stats.frames);
+  stats.symmetric_pose_error_std = std::sqrt(symmetric_squares / stats.frames);
   return stats;
 }
 
@@ -287,7 +306,8 @@ TrackingExperimentResult RunTrackingExperiment(const ViewDatabase& database,
   tbb::enumerable_thread_specific<std::unique_ptr<ViewMatcher>> matchers;
   for (int model : flown) {
     const Flight flight =
-        RenderFlight(meshes[static_cast<size_t>(model)], model, options, num_threads);
+        RenderFlight(meshes[static_cast<size_t>(model)], model,
+                     database.models[static_cast<size_t>(model)].symmetry, options, num_threads);
     std::vector<TrackingRun> runs;
     for (int particles : counts) {
       for (int r = 0; r < options.repeats; ++r) {
@@ -355,12 +375,13 @@ TrackingExperimentResult RunTrackingExperiment(const ViewDatabase& database,
 
 const char* TrackingTableHeader() {
   return "method,particles,runs,frames,pose_error_mean,pose_error_std,right_object_percent,"
-         "ms_per_frame_mean";
+         "ms_per_frame_mean,symmetric_pose_error_mean,symmetric_pose_error_std";
 }
 
 const char* TrackingRunsHeader() {
   return "method,model,particles,seed,frames,right_object_frames,right_object_percent,"
-         "settled_frame,pose_error_mean,pose_error_std,pose_error_max,ms_per_frame_mean";
+         "settled_frame,pose_error_mean,pose_error_std,pose_error_max,ms_per_frame_mean,"
+         "symmetric_pose_error_mean,symmetric_pose_error_std";
 }
 
 void WriteTrackingTable(const std::filesystem::path& path, const TrackingExperimentResult& result) {
@@ -370,7 +391,8 @@ void WriteTrackingTable(const std::filesystem::path& path, const TrackingExperim
     const TrackingStats& s = row.stats;
     csv << row.method << ',' << row.particles << ',' << s.runs << ',' << s.frames << ','
         << s.pose_error_mean << ',' << s.pose_error_std << ',' << s.right_object_percent() << ','
-        << s.ms_per_frame_mean << '\n';
+        << s.ms_per_frame_mean << ',' << s.symmetric_pose_error_mean << ','
+        << s.symmetric_pose_error_std << '\n';
   }
   CloseCsv(csv, path);
 }
@@ -383,7 +405,8 @@ void WriteTrackingRuns(const std::filesystem::path& path, const TrackingExperime
     csv << MethodName(run) << ',' << run.model_name << ',' << run.particles << ',' << run.seed
         << ',' << s.frames << ',' << s.right_object_frames << ',' << s.right_object_percent() << ','
         << run.SettledFrame(run.model) << ',' << s.pose_error_mean << ',' << s.pose_error_std << ','
-        << s.pose_error_max << ',' << s.ms_per_frame_mean << '\n';
+        << s.pose_error_max << ',' << s.ms_per_frame_mean << ',' << s.symmetric_pose_error_mean
+        << ',' << s.symmetric_pose_error_std << '\n';
   }
   CloseCsv(csv, path);
 }
@@ -392,7 +415,7 @@ void WriteTrackingFrames(const std::filesystem::path& path, const TrackingExperi
                          const ViewDatabase& database) {
   std::ofstream csv = OpenCsv(path);
   csv << "method,model,particles,seed,frame,estimated_object,estimated_view,measured,right_object,"
-         "score,pose_error,time_ms\n";
+         "score,pose_error,time_ms,pose_error_symmetric\n";
   for (const TrackingRun& run : result.runs) {
     for (size_t k = 0; k < run.frames.size(); ++k) {
       const TrackingFrameResult& f = run.frames[k];
@@ -400,7 +423,8 @@ void WriteTrackingFrames(const std::filesystem::path& path, const TrackingExperi
           << ',' << k << ','
           << (f.object >= 0 ? database.models[static_cast<size_t>(f.object)].name : "") << ','
           << f.view << ',' << (f.measured ? 1 : 0) << ',' << (f.object == run.model ? 1 : 0) << ','
-          << f.score << ',' << f.pose_error << ',' << f.time_ms << '\n';
+          << f.score << ',' << f.pose_error << ',' << f.time_ms << ',' << f.pose_error_symmetric
+          << '\n';
     }
   }
   CloseCsv(csv, path);

@@ -102,6 +102,9 @@ struct TrackingFrameResult {
   float score = 0.0f;
   /// See the file comment; 2 without an estimate.
   double pose_error = 2.0;
+  /// The same modulo the flown model's symmetry (ViewErrorModuloSymmetry with the database's
+  /// symmetries of the model) when the estimate names that model; pose_error otherwise.
+  double pose_error_symmetric = 2.0;
   double time_ms = 0.0;
 };
 
@@ -113,6 +116,9 @@ struct TrackingStats {
   double pose_error_mean = 0.0;
   double pose_error_std = 0.0;
   double pose_error_max = 0.0;
+  /// Mean and standard deviation of pose_error_symmetric.
+  double symmetric_pose_error_mean = 0.0;
+  double symmetric_pose_error_std = 0.0;
   double ms_per_frame_mean = 0.0;
 
   double right_object_percent() const;
@@ -188,15 +194,17 @@ const char* TrackingRunsHeader();
 
 /// tracking.csv: one row per particle count and one brute-force row:
 /// method,particles,runs,frames,pose_error_mean,pose_error_std,right_object_percent,
-/// ms_per_frame_mean. Throws silpose::Error naming the file if it cannot be written.
+/// ms_per_frame_mean,symmetric_pose_error_mean,symmetric_pose_error_std. Throws silpose::Error
+/// naming the file if it cannot be written.
 void WriteTrackingTable(const std::filesystem::path& path, const TrackingExperimentResult& result);
 /// tracking_runs.csv: one row per run: method,model,particles,seed,frames,right_object_frames,
 /// right_object_percent,settled_frame,pose_error_mean,pose_error_std,pose_error_max,
-/// ms_per_frame_mean (settled_frame: TrackingRun::SettledFrame).
+/// ms_per_frame_mean,symmetric_pose_error_mean,symmetric_pose_error_std (settled_frame:
+/// TrackingRun::SettledFrame).
 void WriteTrackingRuns(const std::filesystem::path& path, const TrackingExperimentResult& result);
 /// Every frame of every run: method,model,particles,seed,frame,estimated_object,estimated_view,
-/// measured,right_object,score,pose_error,time_ms (estimated_object: name, empty without an
-/// estimate).
+/// measured,right_object,score,pose_error,time_ms,pose_error_symmetric (estimated_object: name,
+/// empty without an estimate).
 void WriteTrackingFrames(const std::filesystem::path& path, const TrackingExperimentResult& result,
                          const ViewDatabase& database);
 

@@ -238,10 +238,10 @@ TEST_F(TrackingExperimentTest, WritesTheDocumentedCsvColumns) {
   ASSERT_EQ(table.size(), 4u);
   EXPECT_EQ(table[0],
             "method,particles,runs,frames,pose_error_mean,pose_error_std,right_object_percent,"
-            "ms_per_frame_mean");
+            "ms_per_frame_mean,symmetric_pose_error_mean,symmetric_pose_error_std");
   for (size_t i = 1; i < table.size(); ++i) {
     const std::vector<std::string> cells = SplitCsv(table[i]);
-    ASSERT_EQ(cells.size(), 8u) << table[i];
+    ASSERT_EQ(cells.size(), 10u) << table[i];
     const TrackingRow& row = result_->rows[i - 1];
     EXPECT_EQ(cells[0], row.method);
     EXPECT_EQ(std::stoi(cells[1]), row.particles);
@@ -251,6 +251,11 @@ TEST_F(TrackingExperimentTest, WritesTheDocumentedCsvColumns) {
     EXPECT_NEAR(std::stod(cells[5]), row.stats.pose_error_std, 1e-8);
     EXPECT_NEAR(std::stod(cells[6]), row.stats.right_object_percent(), 1e-6);
     EXPECT_NEAR(std::stod(cells[7]), row.stats.ms_per_frame_mean, 1e-6);
+    EXPECT_NEAR(std::stod(cells[8]), row.stats.symmetric_pose_error_mean, 1e-8);
+    EXPECT_NEAR(std::stod(cells[9]), row.stats.symmetric_pose_error_std, 1e-8);
+    // Neither flown model turns onto itself (the anchor has a mirror plane only): the error
+    // modulo symmetry is the paper's.
+    EXPECT_NEAR(row.stats.symmetric_pose_error_mean, row.stats.pose_error_mean, 1e-12);
   }
   EXPECT_EQ(SplitCsv(table.back())[0], "brute-force");
 
@@ -259,15 +264,15 @@ TEST_F(TrackingExperimentTest, WritesTheDocumentedCsvColumns) {
   ASSERT_EQ(runs.size(), 1u + result_->runs.size());
   EXPECT_EQ(runs[0], TrackingRunsHeader());
   const size_t columns = SplitCsv(runs[0]).size();
-  EXPECT_EQ(columns, 12u);
+  EXPECT_EQ(columns, 14u);
   for (size_t i = 1; i < runs.size(); ++i) EXPECT_EQ(SplitCsv(runs[i]).size(), columns) << runs[i];
 
   WriteTrackingFrames(folder / "frames.csv", *result_, *database_);
   const std::vector<std::string> frames = ReadLines(folder / "frames.csv");
   ASSERT_EQ(frames.size(), 1u + 90u * result_->runs.size());
-  EXPECT_EQ(SplitCsv(frames[0]).size(), 12u);
+  EXPECT_EQ(SplitCsv(frames[0]).size(), 13u);
   for (size_t i = 1; i < frames.size(); ++i) {
-    ASSERT_EQ(SplitCsv(frames[i]).size(), 12u) << frames[i];
+    ASSERT_EQ(SplitCsv(frames[i]).size(), 13u) << frames[i];
   }
   // The first filter run's first frame, cell by cell.
   const TrackingRun& run = result_->runs.front();

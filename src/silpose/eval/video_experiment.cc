@@ -88,8 +88,6 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
 
   VideoExperimentResult result;
   result.view_spacing_deg = database.sphere.typical_spacing_rad * 180.0 / std::numbers::pi;
-  std::vector<std::string> names;
-  for (const ModelViews& model : database.models) names.push_back(model.name);
   std::vector<double> all_rotation, all_translation, all_view;
   ProgressBar progress("eval video", static_cast<int64_t>(chosen.size()) * options.frames);
   for (size_t k = 0; k < chosen.size(); ++k) {
@@ -138,7 +136,7 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
         std::max(tracker_options.filter.max_particles_per_object, options.particles_per_object);
     tracker_options.filter.seed = seed;
     Tracker tracker(database, camera, tracker_options);
-    TrackReport report(names);
+    TrackReport report(database);
     PosesCsvWriter poses(model_dir / "POSES.csv");
     std::unique_ptr<FrameSource> source = OpenFrameSource(video_path.string());
     VideoExperimentModel row;

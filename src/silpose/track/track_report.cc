@@ -48,6 +48,13 @@ TruthFrame MakeTruthFrame(const ViewDatabase& database, const std::string& objec
 TrackReport::TrackReport(std::vector<std::string> object_names)
     : object_names_(std::move(object_names)) {}
 
+TrackReport::TrackReport(const ViewDatabase& database) {
+  for (const ModelViews& model : database.models) {
+    object_names_.push_back(model.name);
+    if (model.symmetry.HasRotations()) symmetries_[model.name] = SymmetryTransforms(model.symmetry);
+  }
+}
+
 void TrackReport::Add(const FrameResult& result, const std::optional<TruthFrame>& truth) {
   frames_.push_back({result, truth});
   truth_frames_ += truth.has_value();
@@ -56,20 +63,30 @@ void TrackReport::Add(const FrameResult& result, const std::optional<TruthFrame>
 TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   TrackAccuracy accuracy;
   std::vector<double> view_errors, rotation_errors, translation_errors;
+  std::vector<double> view_errors_symmetric, rotation_errors_symmetric;
   for (size_t i = static_cast<size_t>(std::max(skip_frames, 0)); i < frames_.size(); ++i) {
     const Entry& entry = frames_[i];
     if (!entry.truth) continue;
     ++accuracy.frames;
     const bool right = entry.result.object >= 0 && entry.result.object_name == entry.truth->object;
     accuracy.right_object += right;
+    std::span<const Rigid3> symmetries;
+    if (right) {
+      const auto found = symmetries_.find(entry.truth->object);
+      if (found != symmetries_.end()) symmetries = found->second;
+    }
     if (entry.result.view_dir_in_object) {
       view_errors.push_back(
           ViewDirectionError(*entry.result.view_dir_in_object, entry.truth->view_dir_in_object));
+      view_errors_symmetric.push_back(ViewErrorModuloSymmetry(
+          *entry.result.view_dir_in_object, entry.truth->view_dir_in_object, symmetries));
     }
     if (right && entry.result.camera_from_object) {
       const Rigid3& estimated = *entry.result.camera_from_object;
       const Rigid3& truth = entry.truth->camera_from_object;
       rotation_errors.push_back(RotationErrorDeg(estimated.rotation, truth.rotation));
+      rotation_errors_symmetric.push_back(
+          RotationErrorModuloSymmetryDeg(estimated.rotation, truth.rotation, symmetries));
       const double distance =
           (truth.rotation * entry.truth->object_centre + truth.translation).norm();
       translation_errors.push_back((estimated.translation - truth.translation).norm() / distance);
@@ -78,6 +95,10 @@ TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   accuracy.view_error = Summarize(view_errors);
   accuracy.rotation_deg = Summarize(rotation_errors);
   accuracy.translation_relative = Summarize(translation_errors);
+  accuracy.view_error_symmetric = Summarize(view_errors_symmetric);
+  accuracy.rotation_deg_symmetric = Summarize(rotation_errors_symmetric);
+  accuracy.view_values_symmetric = std::move(view_errors_symmetric);
+  accuracy.rotation_values_deg_symmetric = std::move(rotation_errors_symmetric);
   accuracy.view_values = std::move(view_errors);
   accuracy.rotation_values_deg = std::move(rotation_errors);
   accuracy.translation_values_relative = std::move(translation_errors);

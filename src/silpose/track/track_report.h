@@ -4,6 +4,7 @@
 // Fig. 6), as plot/figure.h figures; and, with ground truth, the accuracy figures of the run.
 
 #include <Eigen/Core>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,6 +53,13 @@ struct TrackAccuracy {
   std::vector<double> view_values;
   std::vector<double> rotation_values_deg;
   std::vector<double> translation_values_relative;
+  /// view_error and rotation_deg modulo the true object's symmetry (geometry/symmetry.h: the
+  /// database's symmetries of the model; equal to them for objects without rotations, or when the
+  /// report was made without a database). A wrong object's view error is not reduced.
+  ErrorSummary view_error_symmetric;
+  ErrorSummary rotation_deg_symmetric;
+  std::vector<double> view_values_symmetric;
+  std::vector<double> rotation_values_deg_symmetric;
 
   double RightObjectPercent() const { return frames > 0 ? 100.0 * right_object / frames : 0.0; }
 };
@@ -60,6 +68,8 @@ class TrackReport {
  public:
   /// `object_names`: the database's model names, by index.
   explicit TrackReport(std::vector<std::string> object_names);
+  /// The database's model names, and their symmetries for the errors modulo symmetry.
+  explicit TrackReport(const ViewDatabase& database);
 
   /// Adds the next frame's result and, if known, its truth.
   void Add(const FrameResult& result, const std::optional<TruthFrame>& truth = std::nullopt);
@@ -103,6 +113,8 @@ class TrackReport {
     std::optional<TruthFrame> truth;
   };
   std::vector<std::string> object_names_;
+  // Symmetry transforms (SymmetryTransforms) by model name; missing = identity only.
+  std::map<std::string, std::vector<Rigid3>> symmetries_;
   std::vector<Entry> frames_;
   int truth_frames_ = 0;
 };

@@ -42,6 +42,26 @@ bool TrackerOptions::Check(std::string* error) const {
   return true;
 }
 
+void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result) {
+  if (!result->view_dir_in_object || !symmetry.HasRotations()) return;
+  const Eigen::Vector3d view_dir = *result->view_dir_in_object;
+  const Rigid3 s = CanonicalSymmetry(view_dir, symmetry);
+  // The pose P becomes P * S; seen from the camera, the view direction d becomes R_S^T d and the
+  // roll follows from the rotated on-axis camera.
+  if (std::isfinite(result->roll_deg)) {
+    const Eigen::Matrix3d on_axis =
+        CameraFromObjectRotation(view_dir, result->roll_deg) * s.rotation;
+    Eigen::Vector3d canonical_view;
+    double roll_deg = 0.0;
+    ViewAndRollFromRotation(on_axis, &canonical_view, &roll_deg);
+    result->view_dir_in_object = canonical_view;
+    result->roll_deg = roll_deg;
+  } else {
+    result->view_dir_in_object = (s.rotation.transpose() * view_dir).normalized();
+  }
+  if (result->camera_from_object) result->camera_from_object = *result->camera_from_object * s;
+}
+
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
                  const TrackerOptions& options)
     : database_(database), camera_(camera), options_(options) {
@@ -216,6 +236,10 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
         result.status += "-no-pose";
       }
     }
+  }
+  if (options_.canonical_poses && result.object >= 0 && result.view_dir_in_object) {
+    const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result.object)].symmetry;
+    if (symmetry.HasRotations()) ToCanonicalForm(symmetry, &result);
   }
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   ++frame_;

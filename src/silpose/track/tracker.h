@@ -66,6 +66,10 @@ struct TrackerOptions {
   /// rotation also gives the reported view direction and roll, and the filter's velocity.
   bool refine = true;
   ContourRefinementOptions refinement;
+  /// Report the poses of symmetric objects in canonical form (geometry/symmetry.h,
+  /// docs/symmetry.md): of the poses that look alike by the object's symmetries, the one whose
+  /// camera direction lies in a fixed sector of the object. Off: the pose as matched.
+  bool canonical_poses = true;
 
   /// ParticleFilterOptions{} with max_history_frames = 100.
   static ParticleFilterOptions DefaultFilterOptions();
@@ -93,6 +97,11 @@ struct TrackedFrame {
   /// The particle filter's estimate (not set in brute-force mode).
   std::optional<FilterEstimate> estimate;
 };
+
+/// Puts `result`'s pose, view direction and roll in canonical form for an object with
+/// `symmetry` (geometry/symmetry.h): nothing changes for an object without rotations or a result
+/// without view direction.
+void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result);
 
 class Tracker {
  public:

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/geometry/view_frame.h"
 #include "silpose/pose/pose_error.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
@@ -279,6 +280,70 @@ TEST(Tracker, HandheldOffAxisSequenceIsTrackedBelowTheViewGrid) {
   };
   EXPECT_LE(mean(coarse.rotation_deg), mean(brute_errors.rotation_deg) + 0.5);
   EXPECT_LT(mean(coarse.rotation_deg), mean(paper_errors.rotation_deg));
+}
+
+TEST(Tracker, CanonicalFormIsAnEquivalentPoseSharedByAllEquivalentPoses) {
+  // A bearing-like object: continuous about y through c, with a flip about x.
+  const Eigen::Vector3d c(0.0, 1.0, 0.5);
+  ObjectSymmetry symmetry;
+  symmetry.continuous.push_back({.axis = Eigen::Vector3d::UnitY(), .offset = c});
+  Rigid3 flip;
+  flip.rotation = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  flip.translation = c - flip.rotation * c;
+  symmetry.discrete.push_back(flip);
+  const std::vector<Rigid3> transforms = SymmetryTransforms(symmetry, 0.002);
+  Eigen::Vector3d first_across = Eigen::Vector3d::Zero();
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d view = Eigen::Vector3d::Random().normalized();
+    const double roll = -170.0 + 17.0 * trial;
+    FrameResult result;
+    result.view_dir_in_object = view;
+    result.roll_deg = roll;
+    result.camera_from_object = CameraFromObjectAtView(view, roll, 8.0, c);
+    const Rigid3 original = *result.camera_from_object;
+    ToCanonicalForm(symmetry, &result);
+    const Rigid3& canonical = *result.camera_from_object;
+    // Equivalent to the original: the same up to a symmetry.
+    EXPECT_LT(RotationErrorModuloSymmetryDeg(canonical.rotation, original.rotation, transforms),
+              0.3);
+    // In the canonical sector: every canonical camera lies in one half-plane bounded by the
+    // axis (the same direction across the axis), at the original's angle to the axis.
+    const Eigen::Vector3d canonical_view = *result.view_dir_in_object;
+    EXPECT_NEAR(std::abs(canonical_view.dot(Eigen::Vector3d::UnitY())),
+                std::abs(view.dot(Eigen::Vector3d::UnitY())), 1e-9);
+    const Eigen::Vector3d across =
+        (canonical_view - canonical_view.dot(Eigen::Vector3d::UnitY()) * Eigen::Vector3d::UnitY())
+            .normalized();
+    if (trial == 0) first_across = across;
+    EXPECT_LT((across - first_across).norm(), 1e-9) << "trial " << trial;
+    // View, roll and pose agree with each other.
+    EXPECT_LT(
+        (CameraFromObjectRotation(canonical_view, result.roll_deg) - canonical.rotation).norm(),
+        1e-9);
+    EXPECT_LT((ViewDirectionOfPose(canonical, c) - canonical_view).norm(), 1e-9);
+    // An equivalent pose has the same canonical form.
+    const Rigid3& s = transforms[static_cast<size_t>(trial * 37) % transforms.size()];
+    FrameResult equivalent;
+    equivalent.view_dir_in_object = s.rotation.transpose() * view;
+    equivalent.camera_from_object = original * s;
+    Eigen::Vector3d unused;
+    double equivalent_roll = 0.0;
+    ViewAndRollFromRotation(equivalent.camera_from_object->rotation, &unused, &equivalent_roll);
+    equivalent.roll_deg = equivalent_roll;
+    ToCanonicalForm(symmetry, &equivalent);
+    EXPECT_LT((equivalent.camera_from_object->rotation - canonical.rotation).norm(), 1e-6);
+    EXPECT_LT((equivalent.camera_from_object->translation - canonical.translation).norm(), 1e-6);
+    EXPECT_NEAR(WrapDegrees(equivalent.roll_deg - result.roll_deg), 0.0, 1e-6);
+  }
+  // Without rotations nothing changes.
+  FrameResult plain;
+  plain.view_dir_in_object = Eigen::Vector3d(0.0, 0.6, 0.8);
+  plain.roll_deg = 12.0;
+  ObjectSymmetry mirror_only;
+  mirror_only.mirrors.push_back({});
+  ToCanonicalForm(mirror_only, &plain);
+  EXPECT_EQ(*plain.view_dir_in_object, Eigen::Vector3d(0.0, 0.6, 0.8));
+  EXPECT_EQ(plain.roll_deg, 12.0);
 }
 
 TEST(Tracker, RefusesFramesOfAnotherSize) {
