@@ -136,6 +136,7 @@ class TrackerOptions:
     on_axis_matching: bool
     estimate_pose: bool
     refine: bool
+    canonical_poses: bool
     seed: int
     particles_per_object: int
     def __init__(self, **kwargs: object) -> None: ...

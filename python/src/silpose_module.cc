@@ -759,6 +759,9 @@ void BindTrack(py::module_& m) {
                      "Estimate the 6-DOF pose of frames with a silhouette.")
       .def_readwrite("refine", &TrackerOptions::refine,
                      "Refine the pose against the frame's outline (--no-refine: False).")
+      .def_readwrite("canonical_poses", &TrackerOptions::canonical_poses,
+                     "Report the poses of symmetric objects in canonical form "
+                     "(--no-canonical-poses: False).")
       .def_property(
           "seed", [](const TrackerOptions& o) { return o.filter.seed; },
           [](TrackerOptions& o, uint64_t v) { o.filter.seed = v; },
