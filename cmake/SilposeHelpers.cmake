@@ -51,5 +51,12 @@ function(silpose_test)
     SILPOSE_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data"
     SILPOSE_SAMPLE_MODELS_DIR="${PROJECT_SOURCE_DIR}/data/models")
   silpose_warnings(${ARG_NAME})
-  gtest_discover_tests(${ARG_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
+  if(SILPOSE_TEST_PER_BINARY)
+    # One CTest test per test program: a fixture's shared set-up (a database built once for all
+    # its tests) runs once, not once per test as in a process per test.
+    add_test(NAME ${ARG_NAME} COMMAND ${ARG_NAME})
+    set_tests_properties(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}")
+  else()
+    gtest_discover_tests(${ARG_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
+  endif()
 endfunction()
