@@ -61,6 +61,41 @@ TEST(TrackReport, AccuracyCountsObjectsAndErrors) {
   EXPECT_EQ(skipped.right_object, 2);
 }
 
+TEST(TrackReport, ErrorsModuloSymmetryForgiveOnlyTheSymmetryOfTheTrueObject) {
+  // A database of two models by name: a bottle symmetric about z, and a box without rotations.
+  ViewDatabase database;
+  database.models.resize(2);
+  database.models[0].name = "bottle";
+  database.models[0].symmetry.continuous.push_back({.axis = Eigen::Vector3d::UnitZ()});
+  database.models[1].name = "box";
+  TrackReport report(database);
+  const Eigen::Vector3d view = Eigen::Vector3d(1.0, 0.0, 1.0).normalized();
+  const Rigid3 truth = CameraFromObjectAtView(view, 20.0, 10.0, Eigen::Vector3d::Zero());
+  // The estimate is the truth turned by 90 degrees about the bottle's axis.
+  Rigid3 turn;
+  turn.rotation = Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Rigid3 turned = truth * turn;
+  const Eigen::Vector3d turned_view = turn.rotation.transpose() * view;
+  report.Add(Result(0, 0, "bottle", turned_view, turned), Truth("bottle", view, truth));
+  // The same mistake on the box, and a wrong object (the bottle's view for the box).
+  report.Add(Result(1, 1, "box", turned_view, turned), Truth("box", view, truth));
+  report.Add(Result(2, 0, "bottle", turned_view, turned), Truth("box", view, truth));
+  const TrackAccuracy accuracy = report.Accuracy();
+  ASSERT_EQ(accuracy.rotation_values_deg.size(), 2u);
+  EXPECT_NEAR(accuracy.rotation_values_deg[0], 90.0, 1e-6);
+  EXPECT_LT(accuracy.rotation_values_deg_symmetric[0], 0.6);  // sampled symmetry
+  EXPECT_NEAR(accuracy.rotation_values_deg_symmetric[1], 90.0, 1e-6);
+  ASSERT_EQ(accuracy.view_values_symmetric.size(), 3u);
+  EXPECT_GT(accuracy.view_values[0], 0.9);
+  EXPECT_LT(accuracy.view_values_symmetric[0], 0.01);
+  EXPECT_NEAR(accuracy.view_values_symmetric[1], accuracy.view_values[1], 1e-12);
+  EXPECT_NEAR(accuracy.view_values_symmetric[2], accuracy.view_values[2], 1e-12);
+  // Without a database the errors are the plain ones.
+  TrackReport plain({"bottle", "box"});
+  plain.Add(Result(0, 0, "bottle", turned_view, turned), Truth("bottle", view, truth));
+  EXPECT_NEAR(plain.Accuracy().rotation_values_deg_symmetric[0], 90.0, 1e-6);
+}
+
 TEST(TrackReport, MeanStageTimesSkipStagesThatDidNotRun) {
   TrackReport report({"cow"});
   FrameResult first = Result(0, 0, "cow", Eigen::Vector3d::UnitZ(), std::nullopt);
