@@ -20,6 +20,8 @@ targets=("$@")
 case "$seconds" in '' | *[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, not '$seconds'" >&2; exit 2 ;; esac
 
 build="build/$preset"
+# Leaks inside third-party libraries (scripts/lsan.supp, each with its reason) are not findings.
+export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 if [ "${SILPOSE_FUZZ_NO_BUILD:-0}" = 0 ]; then
   cmake --preset "$preset" >/dev/null
   cmake --build "$build" --target fuzzers --parallel "$(nproc)"
