@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The sanitizer stages of CI (scripts/run-tests.sh runs them after the release tests):
-#  1. asan:  clang -O1 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite
+#  1. asan:  clang -O2 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite
 #            except the tests labelled 'slow' (long-running experiments: they check accuracy, which
 #            the release run already does, and take minutes under the sanitizers);
 #  2. fuzz:  every libFuzzer target of that build for SILPOSE_CI_FUZZ_SECONDS (default 20) seconds
