@@ -1,7 +1,7 @@
 # Type stubs of the silpose package (hand-written; python/tests/test_stubs.py checks that they name
 # exactly what the module holds).
 import os
-from typing import Iterator, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +46,7 @@ class ViewDatabase:
     def view_directions(self) -> npt.NDArray[np.float64]: ...
     def signatures(self, model: int) -> npt.NDArray[np.float32]: ...
     def find_model(self, name: str) -> int: ...
+    def symmetry(self, model: int) -> dict[str, Any]: ...
 
 def build_database(mesh_paths: Sequence[_Path], options: DatabaseOptions | None = None,
                    out: _Path | None = None) -> ViewDatabase: ...

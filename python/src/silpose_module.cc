@@ -468,6 +468,44 @@ void BindDatabase(py::module_& m) {
           "the database's memory; unusable views are all 0.")
       .def("find_model", &ViewDatabase::FindModel, py::arg("name"),
            "Index of the model with this name, or -1.")
+      .def(
+          "symmetry",
+          [](const ViewDatabase& database, int model) {
+            if (model < 0 || model >= static_cast<int>(database.models.size())) {
+              ThrowError("model index ", model, " out of range (", database.models.size(),
+                         " models)");
+            }
+            const ObjectSymmetry& symmetry = database.models[static_cast<size_t>(model)].symmetry;
+            py::list discrete, continuous, mirrors;
+            for (const Rigid3& s : symmetry.discrete) {
+              Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
+              transform.topLeftCorner<3, 3>() = s.rotation;
+              transform.topRightCorner<3, 1>() = s.translation;
+              discrete.append(transform);
+            }
+            for (const ContinuousSymmetry& c : symmetry.continuous) {
+              py::dict entry;
+              entry["axis"] = Eigen::Vector3d(c.axis.normalized());
+              entry["offset"] = c.offset;
+              continuous.append(entry);
+            }
+            for (const MirrorSymmetry& m : symmetry.mirrors) {
+              py::dict entry;
+              entry["normal"] = Eigen::Vector3d(m.normal.normalized());
+              entry["offset"] = m.offset;
+              mirrors.append(entry);
+            }
+            py::dict result;
+            result["description"] = symmetry.Describe();
+            result["discrete"] = discrete;
+            result["continuous"] = continuous;
+            result["mirrors"] = mirrors;
+            return result;
+          },
+          py::arg("model"),
+          "The model's symmetries found by build-db (docs/symmetry.md): {'description': str, "
+          "'discrete': [4x4 model_from_model transforms], 'continuous': [{'axis', 'offset'}], "
+          "'mirrors': [{'normal', 'offset'}]}.")
       .def("__repr__", [](const ViewDatabase& d) {
         return "<silpose.ViewDatabase: " + std::to_string(d.models.size()) + " models x " +
                std::to_string(d.num_views()) + " views x " + std::to_string(d.num_shells()) +

@@ -29,6 +29,19 @@ def test_read_exposes_the_database(cli_database):
         database.signatures(2)
 
 
+def test_symmetries_found_by_build_db(cli_database):
+    database = silpose.ViewDatabase.read(cli_database)
+    cow = database.symmetry(0)
+    # The cow is mirror-symmetric in its plane z = const and turns onto itself about no axis.
+    assert cow["discrete"] == [] and cow["continuous"] == []
+    assert len(cow["mirrors"]) == 1
+    assert abs(abs(cow["mirrors"][0]["normal"][2]) - 1.0) < 0.01
+    assert "mirror plane" in cow["description"]
+    assert database.symmetry(1)["description"] == "none"
+    with pytest.raises(silpose.Error, match="model index 2 out of range"):
+        database.symmetry(2)
+
+
 def test_views_outlive_the_database_object(cli_database):
     directions = silpose.ViewDatabase.read(cli_database).view_directions
     # The database is only referenced by the array now.
