@@ -37,14 +37,13 @@ std::string FormatVector(const Eigen::Vector3d& v) {
   return out.str();
 }
 
-// A unit vector perpendicular to unit `axis`, fixed by the axis alone.
+}  // namespace
+
 Eigen::Vector3d FixedPerpendicular(const Eigen::Vector3d& axis) {
   Eigen::Index least = 0;
   axis.cwiseAbs().minCoeff(&least);
   return axis.cross(Eigen::Vector3d::Unit(least)).normalized();
 }
-
-}  // namespace
 
 std::string ObjectSymmetry::Describe() const {
   if (!HasRotations() && mirrors.empty()) return "none";

@@ -89,6 +89,10 @@ double ViewErrorModuloSymmetry(const Eigen::Vector3d& estimated, const Eigen::Ve
 /// of P is P * S. The identity for an object without rotations.
 Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object, const ObjectSymmetry& symmetry);
 
+/// A unit vector perpendicular to the unit vector `axis`, fixed by the axis alone (the cross
+/// product with the coordinate axis least aligned with it).
+Eigen::Vector3d FixedPerpendicular(const Eigen::Vector3d& axis);
+
 /// Nearest-neighbour search among fixed 3D points (a k-d tree).
 class NearestPointIndex {
  public:

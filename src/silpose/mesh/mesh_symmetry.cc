@@ -90,13 +90,6 @@ Rigid3 RotationAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& centre,
   return s;
 }
 
-// A unit vector perpendicular to unit `axis`.
-Eigen::Vector3d Perpendicular(const Eigen::Vector3d& axis) {
-  Eigen::Index least = 0;
-  axis.cwiseAbs().minCoeff(&least);
-  return axis.cross(Eigen::Vector3d::Unit(least)).normalized();
-}
-
 void AddMirror(const Eigen::Vector3d& normal, const Eigen::Vector3d& centre,
                std::vector<MirrorSymmetry>* mirrors) {
   for (const MirrorSymmetry& m : *mirrors) {
@@ -202,7 +195,7 @@ ObjectSymmetry DetectSymmetry(const TriangleMesh& mesh, const SymmetryDetectionO
   if (primary_continuous) {
     result.continuous.push_back({.axis = *primary, .offset = centre});
     // A flip (half turn about an axis across the continuous one): one represents them all.
-    const Eigen::Vector3d across = Perpendicular(*primary);
+    const Eigen::Vector3d across = FixedPerpendicular(*primary);
     if (tester.RotationPasses(across, centre, kPi))
       result.discrete.push_back(RotationAbout(across, centre, kPi));
     AddMirror(across, centre, &result.mirrors);
@@ -211,7 +204,7 @@ ObjectSymmetry DetectSymmetry(const TriangleMesh& mesh, const SymmetryDetectionO
     for (int k = 1; k < n; ++k)
       result.discrete.push_back(RotationAbout(*primary, centre, 2.0 * kPi * k / n));
     // Flips and mirror planes containing the axis repeat every 180 / n degrees: scan one period.
-    const Eigen::Vector3d u = Perpendicular(*primary), v = primary->cross(u);
+    const Eigen::Vector3d u = FixedPerpendicular(*primary), v = primary->cross(u);
     constexpr int kSteps = 64;
     std::optional<double> flip, mirror;
     for (int s = 0; s < kSteps && !(flip && mirror); ++s) {
