@@ -210,12 +210,16 @@ TEST_F(ParticleFilterTest, ProposalCoversEveryObjectOnlyWhenTheParticlesLoseTheF
   int right_after_switch = 0;
   for (size_t t = 0; t < path.size(); ++t) {
     const FilterEstimate estimate = filter.Step(Signature(path[t]));
-    if (t == 0) EXPECT_EQ(estimate.proposed, 3) << "first frame: each object's best view";
+    if (t == 0) {
+      EXPECT_EQ(estimate.proposed, 3) << "first frame: each object's best view";
+    }
     if (t >= 10 && t < 20) cheap += estimate.proposed == views;
     // A proposal covers the most probable object (views) and some others (one each).
     EXPECT_GE(estimate.proposed, views) << "frame " << t;
     EXPECT_LE(estimate.proposed, views + 2) << "frame " << t;
-    if (t == 20) EXPECT_EQ(estimate.proposed, views + 2) << "the switch: every object";
+    if (t == 20) {
+      EXPECT_EQ(estimate.proposed, views + 2) << "the switch: every object";
+    }
     if (t >= 25) right_after_switch += Right(estimate, path[t]);
   }
   // Tracking a clean silhouette, most frames propose for the tracked object only.
@@ -227,7 +231,9 @@ TEST_F(ParticleFilterTest, ProposalCoversEveryObjectOnlyWhenTheParticlesLoseTheF
   ParticleFilter every(Sphere(), *spectra_, options);
   for (size_t t = 1; t < 12; ++t) {
     const FilterEstimate estimate = every.Step(Signature(path[t]));
-    if (t > 1) EXPECT_EQ(estimate.proposed, views + 2) << "frame " << t;
+    if (t > 1) {
+      EXPECT_EQ(estimate.proposed, views + 2) << "frame " << t;
+    }
   }
 }
 

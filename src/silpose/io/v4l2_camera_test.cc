@@ -196,8 +196,9 @@ TEST(V4l2CameraTest, MjpegFramesAreDecodedInOrderUntilTheCameraStops) {
     for (int i = 0; i < 3; ++i) {
       ASSERT_TRUE(source.Read(&frame)) << i;
       ASSERT_EQ(frame.type(), CV_8UC3);
-      EXPECT_LT(
-          cv::norm(frame, camera->frames[static_cast<size_t>(i)], cv::NORM_L1) / frame.total(), 6.0)
+      EXPECT_LT(cv::norm(frame, camera->frames[static_cast<size_t>(i)], cv::NORM_L1) /
+                    static_cast<double>(frame.total()),
+                6.0)
           << "frame " << i << " differs from what the camera sent";
       EXPECT_EQ(source.name(), "/dev/fake#" + std::to_string(i));
     }

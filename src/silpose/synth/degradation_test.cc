@@ -236,10 +236,6 @@ cv::Mat DistanceToOutline(const cv::Mat& mask) {
   return inside + outside;
 }
 
-double IoU(const cv::Mat& a, const cv::Mat& b) {
-  return static_cast<double>(cv::countNonZero(a & b)) / cv::countNonZero(a | b);
-}
-
 cv::Point2d Centroid(const cv::Mat& mask) {
   const cv::Moments m = cv::moments(mask, true);
   return {m.m10 / m.m00, m.m01 / m.m00};
