@@ -119,6 +119,24 @@ TEST_F(CliLimitsTest, SeedsMustBeWholeNumbersInRange) {
   EXPECT_NE(synth.err.find("seed"), std::string::npos) << synth.err;
 }
 
+TEST_F(CliLimitsTest, EvalModelsFolderFromTheEnvironmentMustHoldMeshes) {
+  // SILPOSE_EVAL_MODELS names the evaluation's default meshes; a wrong folder is one clear line.
+  const std::string missing = Path("no_such_models");
+  ::setenv("SILPOSE_EVAL_MODELS", missing.c_str(), 1);
+  CommandResult run = Silpose("eval self-match");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(Lines(run.err), 1) << run.err;
+  EXPECT_NE(run.err.find(missing + " (SILPOSE_EVAL_MODELS): not a folder"), std::string::npos)
+      << run.err;
+  const std::string empty = Path("empty_models");
+  std::filesystem::create_directories(empty);
+  ::setenv("SILPOSE_EVAL_MODELS", empty.c_str(), 1);
+  run = Silpose("eval self-match");
+  ::unsetenv("SILPOSE_EVAL_MODELS");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("no mesh files in it"), std::string::npos) << run.err;
+}
+
 TEST_F(CliLimitsTest, ParticleCountsAreBoundedByLimitsTheUserCanSee) {
   // Fixed counts below and above the adaptive defaults (10..300) just work.
   for (const char* particles : {"5", "500"}) {

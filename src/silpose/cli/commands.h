@@ -27,8 +27,9 @@ void AddEvalBopCommand(CLI::App* eval);
 /// `silpose eval handheld` (eval_handheld_command.cc), added under `eval`.
 void AddEvalHandheldCommand(CLI::App* eval);
 
-/// The models an evaluation uses by default: the reference model set (a shared/models folder beside
-/// the checkout) when run from a checkout beside it, else the sample models.
+/// The models an evaluation uses by default: the meshes in the folder named by the environment
+/// variable SILPOSE_EVAL_MODELS (a reference set), else the sample models. Throws silpose::Error
+/// if the variable names no folder, or one without meshes.
 std::vector<std::filesystem::path> DefaultEvalModels();
 
 /// What `silpose track` does, as options (also run by `silpose demo`): read INPUT, track it with

@@ -1,5 +1,6 @@
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -28,13 +29,15 @@ struct SelfMatchArguments {
 }  // namespace
 
 std::vector<std::filesystem::path> DefaultEvalModels() {
-  // The reference set when run from a checkout beside it, else the sample models.
-  for (const char* candidate : {"../shared/models", "../../shared/models"}) {
+  // A reference set named by the environment, else the sample models.
+  const char* folder = std::getenv("SILPOSE_EVAL_MODELS");
+  if (folder != nullptr && *folder != '\0') {
     std::error_code error;
-    if (std::filesystem::is_directory(candidate, error)) {
-      auto files = MeshFilesIn(candidate);
-      if (!files.empty()) return files;
-    }
+    if (!std::filesystem::is_directory(folder, error))
+      ThrowError(folder, " (SILPOSE_EVAL_MODELS): not a folder");
+    auto files = MeshFilesIn(folder);
+    if (files.empty()) ThrowError(folder, " (SILPOSE_EVAL_MODELS): no mesh files in it");
+    return files;
   }
   return SampleModels();
 }
@@ -282,9 +285,8 @@ void AddTrackingCommand(CLI::App* eval) {
       "brute-force matching of every frame. Writes OUTDIR/tracking.csv (one row per particle "
       "count and a brute-force row), tracking_runs.csv, tracking.svg and tracking.png.");
   command->add_option("models", arguments->models,
-                      "Meshes of the database (default: the reference models when the checkout "
-                      "sits beside them, else the "
-                      "sample models)");
+                      "Meshes of the database (default: the folder in $SILPOSE_EVAL_MODELS, "
+                      "else the sample models)");
   command->add_option("-d,--database", arguments->database,
                       "Use this database (built from the same meshes, in order) instead of "
                       "building one");
@@ -333,8 +335,8 @@ void AddEvalCommand(CLI::App& app) {
       "Render every database view again with a random roll at other image sizes and check that "
       "it matches its own view (or a neighbour) with the right roll.");
   self_match->add_option("models", arguments->models,
-                         "Meshes (default: the reference models when the checkout sits beside "
-                         "them, else the sample models)");
+                         "Meshes (default: the folder in $SILPOSE_EVAL_MODELS, else the sample "
+                         "models)");
   self_match->add_option("-d,--database", arguments->database,
                          "Use this database (built from the same meshes, in order) instead of "
                          "building one");

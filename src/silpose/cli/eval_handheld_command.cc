@@ -322,8 +322,8 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       "handheld.svg/.png and README.txt.");
   command->add_option("-o,--output", arguments->output, "Output folder")->capture_default_str();
   command->add_option("--models", arguments->models,
-                      "Database meshes: folders or files (default: the reference models when "
-                      "the source checkout has them beside it, else the sample models)");
+                      "Database meshes: folders or files (default: the folder in "
+                      "$SILPOSE_EVAL_MODELS, else the sample models)");
   command
       ->add_option("--evaluate", arguments->evaluate,
                    "Models to film, by name (default: the database models that are not sample "

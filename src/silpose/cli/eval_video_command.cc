@@ -96,8 +96,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
       "subtraction and tracked against the whole database; prints and writes the % of frames "
       "with the right object and the median rotation and translation errors.");
   command->add_option("models", arguments->models,
-                      "Meshes of the database (default: the reference models when the checkout "
-                      "sits beside them, else the "
+                      "Meshes of the database (default: the folder in $SILPOSE_EVAL_MODELS, "
+                      "else the "
                       "sample models)");
   command->add_option("-d,--database", arguments->database,
                       "Database built from exactly these meshes (default: build one)");

@@ -49,23 +49,25 @@ class Writer {
   std::string bytes_;
 };
 
-void WriteSymmetry(const ObjectSymmetry& symmetry, Writer* writer) {
-  Writer& out = *writer;
-  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.discrete.size()));
+void PutVector(const Eigen::Vector3d& v, Writer* out) {
+  for (int r = 0; r < 3; ++r) out->Put<double>(v[r]);
+}
+
+void WriteSymmetry(const ObjectSymmetry& symmetry, Writer* out) {
+  out->Put<uint32_t>(static_cast<uint32_t>(symmetry.discrete.size()));
   for (const Rigid3& d : symmetry.discrete) {
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) out.Put<double>(d.rotation(r, c));
-    for (int r = 0; r < 3; ++r) out.Put<double>(d.translation[r]);
+    for (int r = 0; r < 3; ++r) PutVector(d.rotation.row(r).transpose(), out);  // row-major
+    PutVector(d.translation, out);
   }
-  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.continuous.size()));
+  out->Put<uint32_t>(static_cast<uint32_t>(symmetry.continuous.size()));
   for (const ContinuousSymmetry& c : symmetry.continuous) {
-    for (int r = 0; r < 3; ++r) out.Put<double>(c.axis[r]);
-    for (int r = 0; r < 3; ++r) out.Put<double>(c.offset[r]);
+    PutVector(c.axis, out);
+    PutVector(c.offset, out);
   }
-  out.Put<uint32_t>(static_cast<uint32_t>(symmetry.mirrors.size()));
+  out->Put<uint32_t>(static_cast<uint32_t>(symmetry.mirrors.size()));
   for (const MirrorSymmetry& m : symmetry.mirrors) {
-    for (int r = 0; r < 3; ++r) out.Put<double>(m.normal[r]);
-    for (int r = 0; r < 3; ++r) out.Put<double>(m.offset[r]);
+    PutVector(m.normal, out);
+    PutVector(m.offset, out);
   }
 }
 
@@ -504,34 +506,32 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     }
     if (version >= 3) {
       ObjectSymmetry& symmetry = model.symmetry;
-      constexpr uint32_t kMaxSymmetries = 256;
-      const auto num_discrete = in.Get<uint32_t>("discrete symmetry count");
-      if (num_discrete > kMaxSymmetries)
-        in.Fail("discrete symmetry count ", num_discrete, " out of range");
-      need(num_discrete, 12 * sizeof(double), "discrete symmetries");
-      symmetry.discrete.resize(num_discrete);
+      // A count of at most kMaxEntries entries of `doubles` values each that fit in what is left.
+      const auto count = [&](const char* what, const char* entries, uint64_t doubles) {
+        const auto n = in.Get<uint32_t>(what);
+        if (n > ObjectSymmetry::kMaxEntries) in.Fail(what, " ", n, " out of range");
+        need(n, doubles * sizeof(double), entries);
+        return n;
+      };
+      const auto vector = [&in](const char* what) {
+        Eigen::Vector3d v;
+        for (int r = 0; r < 3; ++r) v[r] = in.Get<double>(what);
+        return v;
+      };
+      symmetry.discrete.resize(count("discrete symmetry count", "discrete symmetries", 12));
       for (Rigid3& d : symmetry.discrete) {
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) d.rotation(r, c) = in.Get<double>("discrete symmetries");
-        for (int r = 0; r < 3; ++r) d.translation[r] = in.Get<double>("discrete symmetries");
+        for (int r = 0; r < 3; ++r) d.rotation.row(r) = vector("discrete symmetries").transpose();
+        d.translation = vector("discrete symmetries");
       }
-      const auto num_continuous = in.Get<uint32_t>("continuous symmetry count");
-      if (num_continuous > kMaxSymmetries)
-        in.Fail("continuous symmetry count ", num_continuous, " out of range");
-      need(num_continuous, 6 * sizeof(double), "continuous symmetries");
-      symmetry.continuous.resize(num_continuous);
+      symmetry.continuous.resize(count("continuous symmetry count", "continuous symmetries", 6));
       for (ContinuousSymmetry& c : symmetry.continuous) {
-        for (int r = 0; r < 3; ++r) c.axis[r] = in.Get<double>("continuous symmetries");
-        for (int r = 0; r < 3; ++r) c.offset[r] = in.Get<double>("continuous symmetries");
+        c.axis = vector("continuous symmetries");
+        c.offset = vector("continuous symmetries");
       }
-      const auto num_mirrors = in.Get<uint32_t>("mirror plane count");
-      if (num_mirrors > kMaxSymmetries)
-        in.Fail("mirror plane count ", num_mirrors, " out of range");
-      need(num_mirrors, 6 * sizeof(double), "mirror planes");
-      symmetry.mirrors.resize(num_mirrors);
+      symmetry.mirrors.resize(count("mirror plane count", "mirror planes", 6));
       for (MirrorSymmetry& m : symmetry.mirrors) {
-        for (int r = 0; r < 3; ++r) m.normal[r] = in.Get<double>("mirror planes");
-        for (int r = 0; r < 3; ++r) m.offset[r] = in.Get<double>("mirror planes");
+        m.normal = vector("mirror planes");
+        m.offset = vector("mirror planes");
       }
       std::string problem;
       if (!symmetry.Check(&problem))

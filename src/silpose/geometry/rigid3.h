@@ -5,6 +5,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
+#include <numbers>
 
 namespace silpose {
 
@@ -19,5 +21,13 @@ struct Rigid3 {
   }
   Rigid3 Inverse() const { return {rotation.transpose(), -(rotation.transpose() * translation)}; }
 };
+
+/// Angle of the rotation a^T b in degrees, [0, 180]. The matrices should be rotations. From the
+/// quaternion by atan2: acos of (trace - 1) / 2 loses precision near 0.
+inline double RotationAngleBetweenDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  const Eigen::Quaterniond relative(Eigen::Matrix3d(a.transpose() * b));
+  const double angle = 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w()));
+  return angle * 180.0 / std::numbers::pi;
+}
 
 }  // namespace silpose

@@ -13,16 +13,9 @@
 namespace silpose {
 namespace {
 
-constexpr int kMaxEntries = 256;
-
 bool IsRotation(const Eigen::Matrix3d& r) {
   return r.allFinite() && (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() < 1e-6 &&
          std::abs(r.determinant() - 1.0) < 1e-6;
-}
-
-double AngleDeg(const Eigen::Matrix3d& relative) {
-  const double c = std::clamp((relative.trace() - 1.0) / 2.0, -1.0, 1.0);
-  return std::acos(c) * 180.0 / std::numbers::pi;
 }
 
 std::string FormatVector(const Eigen::Vector3d& v) {
@@ -195,9 +188,9 @@ std::vector<Rigid3> SymmetryTransforms(const ObjectSymmetry& symmetry, double ma
 double RotationErrorModuloSymmetryDeg(const Eigen::Matrix3d& estimated,
                                       const Eigen::Matrix3d& truth,
                                       std::span<const Rigid3> transforms) {
-  double best = AngleDeg(estimated.transpose() * truth);
+  double best = RotationAngleBetweenDeg(estimated, truth);
   for (const Rigid3& s : transforms)
-    best = std::min(best, AngleDeg((estimated * s.rotation).transpose() * truth));
+    best = std::min(best, RotationAngleBetweenDeg(estimated * s.rotation, truth));
   return best;
 }
 

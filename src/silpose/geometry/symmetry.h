@@ -18,6 +18,7 @@
 // image. Those "twin" views cannot be told apart by the outline alone.
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <span>
 #include <string>
 #include <vector>
@@ -41,6 +42,8 @@ struct MirrorSymmetry {
 
 /// Every symmetry found for (or given to) one object.
 struct ObjectSymmetry {
+  /// Most entries of each kind (Check).
+  static constexpr size_t kMaxEntries = 256;
   /// Proper rotations other than the identity, model_from_model.
   std::vector<Rigid3> discrete;
   /// At most one in practice (an object with two continuous axes is a sphere).
@@ -53,7 +56,7 @@ struct ObjectSymmetry {
   /// 2 mirror planes" (axes in the model frame, unit length).
   std::string Describe() const;
   /// False (with the reason) for a non-rotation or non-finite transform, a zero axis or normal,
-  /// or more than 256 entries of a kind.
+  /// or more than kMaxEntries entries of a kind.
   bool Check(std::string* error = nullptr) const;
 };
 

@@ -97,8 +97,8 @@ TEST(Symmetry, CanonicalPosesAgreeForEquivalentPosesAndLookTheSame) {
       // The canonical pose is equivalent: S is one of the object's symmetries (up to sampling).
       double nearest = 1e9;
       for (const Rigid3& t : transforms) {
-        nearest = std::min(nearest, (t.rotation - s.rotation).norm() +
-                                        (t.translation - s.translation).norm());
+        nearest = std::min(
+            nearest, (t.rotation - s.rotation).norm() + (t.translation - s.translation).norm());
       }
       EXPECT_LT(nearest, 0.02);
       // An equivalent pose (a random symmetry applied) has the same canonical form.

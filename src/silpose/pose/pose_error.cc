@@ -34,10 +34,7 @@ double SortedPercentile(const std::vector<double>& sorted, double p) {
 }  // namespace
 
 double RotationErrorDeg(const Eigen::Matrix3d& estimated, const Eigen::Matrix3d& truth) {
-  // acos of (trace - 1) / 2 loses precision near 0; the quaternion's atan2 does not.
-  const Eigen::Quaterniond relative(Eigen::Matrix3d(estimated.transpose() * truth));
-  const double angle = 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w()));
-  return angle * 180.0 / std::numbers::pi;
+  return RotationAngleBetweenDeg(estimated, truth);
 }
 
 double ViewDirectionError(const Eigen::Vector3d& estimated, const Eigen::Vector3d& truth) {
