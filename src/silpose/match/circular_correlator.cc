@@ -150,11 +150,14 @@ SignatureSpectrum CircularCorrelator::Transform(std::span<const float> radii, bo
 void CircularCorrelator::Correlate(const SignatureSpectrum& query,
                                    const SignatureSpectrum& reference, std::span<float> out) {
   SILPOSE_ASSERT(static_cast<int>(out.size()) == length_);
-  const size_t half = complex_scratch_.size();
-  SILPOSE_ASSERT(query.coefficients.size() == half && reference.coefficients.size() == half);
-  for (size_t k = 0; k < half; ++k) {
+  SILPOSE_ASSERT(HasHarmonics(query) && HasHarmonics(reference));
+  // Coefficients a spectrum leaves out are 0, and so are their products.
+  const size_t kept = std::min(query.coefficients.size(), reference.coefficients.size());
+  for (size_t k = 0; k < kept; ++k) {
     complex_scratch_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
   }
+  std::fill(complex_scratch_.begin() + static_cast<std::ptrdiff_t>(kept), complex_scratch_.end(),
+            std::complex<float>(0.0f, 0.0f));
   fft_->Inverse(complex_scratch_.data(), out.data());
 }
 
@@ -186,8 +189,7 @@ CorrelationPeak CircularCorrelator::FullPeak(const SignatureSpectrum& query,
 void CircularCorrelator::CoarseCorrelate(const SignatureSpectrum& query,
                                          const SignatureSpectrum& reference) {
   const size_t harmonics = bound_length_;
-  SILPOSE_ASSERT(query.coefficients.size() > harmonics &&
-                 reference.coefficients.size() > harmonics);
+  SILPOSE_ASSERT(HasHarmonics(query) && HasHarmonics(reference));
   for (size_t k = 0; k < harmonics; ++k) {
     coarse_products_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
   }
@@ -391,10 +393,13 @@ float CircularCorrelator::ScoreAtShift(const SignatureSpectrum& query,
                                        const SignatureSpectrum& reference,
                                        double shift_bins) const {
   // e(s) = sum_k w_k Re(conj(Q_k) D_k exp(2 pi i k s / M)) for real s (band-limited interpolation).
-  const size_t half = query.coefficients.size();
+  SILPOSE_ASSERT(HasHarmonics(query) && HasHarmonics(reference));
+  const size_t half = static_cast<size_t>(length_ / 2 + 1);
+  // Coefficients a spectrum leaves out are 0: their terms add nothing.
+  const size_t kept = std::min(query.coefficients.size(), reference.coefficients.size());
   const double step = 2.0 * std::numbers::pi * shift_bins / length_;
   double sum = 0.0;
-  for (size_t k = 0; k < half; ++k) {
+  for (size_t k = 0; k < kept; ++k) {
     const double weight = (k == 0 || k == half - 1) ? 1.0 : 2.0;
     const std::complex<double> product = std::conj(std::complex<double>(query.coefficients[k])) *
                                          std::complex<double>(reference.coefficients[k]);

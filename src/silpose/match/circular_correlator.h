@@ -39,6 +39,8 @@ struct CorrelationOptions {
 /// The spectrum of a normalised signature, ready to correlate. Built by CircularCorrelator.
 struct SignatureSpectrum {
   /// M/2 + 1 coefficients of the zero-mean, smoothed, unit-norm signature, scaled by 1/sqrt(M).
+  /// Smoothing makes the ones from CircularCorrelator::harmonics() on exactly 0: a spectrum may
+  /// keep only the first harmonics() (ViewSpectra stores them so) and correlates the same.
   std::vector<std::complex<float>> coefficients;
   /// |coefficients[k]| for the harmonics the smoothing keeps, weighted by how often bin k occurs
   /// in the full spectrum (1 for k = 0 and k = M/2, 2 otherwise) when `weighted` was asked for; the
@@ -64,6 +66,10 @@ class CircularCorrelator {
 
   int length() const { return length_; }
   const CorrelationOptions& options() const { return options_; }
+  /// Harmonics the smoothing keeps (M/2 + 1 without smoothing): coefficients from this one on are
+  /// exactly 0, and every spectrum has this many magnitudes. Spectra whose coefficients are cut to
+  /// any length from harmonics() to M/2 + 1 give the same correlations.
+  size_t harmonics() const { return bound_length_; }
 
   /// Normalises `radii` (M values) and transforms it. `weighted`: see SignatureSpectrum.
   void Transform(std::span<const float> radii, SignatureSpectrum* spectrum, bool weighted = false);
@@ -103,6 +109,11 @@ class CircularCorrelator {
                                              std::span<const float> reference);
 
  private:
+  /// Whether `spectrum` holds from harmonics() to M/2 + 1 coefficients.
+  bool HasHarmonics(const SignatureSpectrum& spectrum) const {
+    return spectrum.coefficients.size() >= bound_length_ &&
+           spectrum.coefficients.size() <= complex_scratch_.size();
+  }
   /// Band-limited products conj(Q_k) D_k into coarse_products_ and the correlation at the
   /// coarse_fft_ length's evenly spaced shifts into coarse_samples_.
   void CoarseCorrelate(const SignatureSpectrum& query, const SignatureSpectrum& reference);

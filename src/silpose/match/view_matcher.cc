@@ -2,11 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <queue>
 #include <sstream>
+#include <system_error>
+#include <thread>
 
 #include "silpose/util/error.h"
+#include "silpose/util/threads.h"
 
 namespace silpose {
 
@@ -58,6 +62,9 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
       }
     }
   }
+  table_bytes_ = spectra_.capacity() * sizeof(SignatureSpectrum) +
+                 spectra_.size() * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
+                 apparent_.capacity() * sizeof(float);
 }
 
 void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
@@ -65,12 +72,65 @@ void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
   if (views.Record(view, shell).status != SignatureStatus::kOk) return;
   // One correlator per thread: the FFT plan and scratch are reused across views.
   thread_local std::unique_ptr<CircularCorrelator> correlator;
+  thread_local SignatureSpectrum full;
   if (!correlator || correlator->length() != signature_length_ ||
       correlator->options().smoothing_deg != options_.smoothing_deg ||
       correlator->options().backend != options_.backend) {
     correlator = std::make_unique<CircularCorrelator>(signature_length_, options_);
   }
-  correlator->Transform(views.Signature(view, shell), &spectra_[index]);
+  correlator->Transform(views.Signature(view, shell), &full);
+  // Only the harmonics the smoothing keeps: the others are exactly 0 and the correlator treats
+  // left-out coefficients as 0. assign() into the empty vectors allocates their exact size.
+  SignatureSpectrum& stored = spectra_[index];
+  const auto kept = static_cast<std::ptrdiff_t>(correlator->harmonics());
+  stored.coefficients.assign(full.coefficients.begin(), full.coefficients.begin() + kept);
+  stored.magnitudes.assign(full.magnitudes.begin(), full.magnitudes.end());
+  stored.has_variance = full.has_variance;
+  num_computed_.fetch_add(1, std::memory_order_relaxed);
+  spectrum_bytes_.fetch_add(stored.coefficients.capacity() * sizeof(std::complex<float>) +
+                                stored.magnitudes.capacity() * sizeof(float),
+                            std::memory_order_relaxed);
+}
+
+void ViewSpectra::ComputeAll(int num_threads) const {
+  const size_t total = spectra_.size();
+  const size_t per_model = static_cast<size_t>(num_shells_) * static_cast<size_t>(num_views_);
+  // Views are handed out in chunks from a shared counter; a failure stops every worker and is
+  // rethrown here.
+  constexpr size_t kChunk = 64;
+  std::atomic<size_t> next{0};
+  std::mutex failure_mutex;
+  std::exception_ptr failure;
+  auto work = [&] {
+    try {
+      for (size_t begin = next.fetch_add(kChunk); begin < total; begin = next.fetch_add(kChunk)) {
+        for (size_t index = begin; index < std::min(total, begin + kChunk); ++index) {
+          const size_t in_model = index % per_model;
+          Get(static_cast<int>(index / per_model),
+              static_cast<int>(in_model % static_cast<size_t>(num_views_)),
+              static_cast<int>(in_model / static_cast<size_t>(num_views_)));
+        }
+      }
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next.store(total);
+    }
+  };
+  const size_t chunks = (total + kChunk - 1) / kChunk;
+  const auto threads = static_cast<size_t>(
+      std::min<size_t>(static_cast<size_t>(WorkerThreads(num_threads)), chunks));
+  std::vector<std::thread> workers;
+  for (size_t t = 1; t < threads; ++t) {
+    try {
+      workers.emplace_back(work);
+    } catch (const std::system_error&) {
+      break;  // no more threads: the ones running (and this one) do the rest
+    }
+  }
+  work();
+  for (std::thread& worker : workers) worker.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 int ViewSpectra::ChooseShell(int model, int view, double apparent_radius) const {

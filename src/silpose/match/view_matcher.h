@@ -8,6 +8,7 @@
 // until the K-th best score found is at least the next bound, so the result equals the exhaustive
 // search. `exhaustive` correlates every view (for checking and benchmarking).
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -54,9 +55,12 @@ struct MatchStats {
 
 /// Holds the spectra of every database view, in every distance shell. A view's spectrum is
 /// computed when it is first used (one FFT; thread-safe), so a sequence seen at one distance never
-/// pays for the other shells, and a particle filter only for the views its particles visit.
-/// Searching is read-only on it but uses per-object scratch space, so use one ViewMatcher per
-/// thread (they can share one ViewSpectra). `database` must outlive it.
+/// pays for the other shells, and a particle filter only for the views its particles visit; or all
+/// at once by ComputeAll, for memory that no longer grows while tracking. A spectrum keeps only the
+/// harmonics the smoothing leaves non-zero (CircularCorrelator::harmonics(): 151 of 501
+/// coefficients at the default 2 degrees and M = 1000, about 1.8 KB a view), which correlate
+/// exactly as the full spectrum. Searching is read-only on it but uses per-object scratch space, so
+/// use one ViewMatcher per thread (they can share one ViewSpectra). `database` must outlive it.
 class ViewSpectra {
  public:
   explicit ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options = {});
@@ -65,11 +69,23 @@ class ViewSpectra {
   /// Not for temporaries: the spectra keep a reference to the database.
   ViewSpectra(ViewDatabase&&, const CorrelationOptions& = {}) = delete;
 
+  /// The spectrum of a view (made now if it was not yet). Views whose silhouette could not be
+  /// described (ViewRecord::status) have an empty one.
   const SignatureSpectrum& Get(int model, int view, int shell = 0) const {
     const size_t index =
         Index(model, shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
     std::call_once(once_[index], [&] { Compute(model, view, shell, index); });
     return spectra_[index];
+  }
+  /// Makes the spectra of every view of every model and shell not made yet, on `num_threads`
+  /// threads (0 = all available cores; util/threads.h). Thread-safe with Get; the spectra are the
+  /// ones Get makes. Afterwards Get allocates nothing.
+  void ComputeAll(int num_threads = 0) const;
+  /// Spectra made so far (views whose silhouette was described; see Get).
+  size_t num_computed() const { return num_computed_.load(std::memory_order_relaxed); }
+  /// Bytes this object holds: its tables (sized at construction) and the spectra made so far.
+  size_t MemoryBytes() const {
+    return table_bytes_ + spectrum_bytes_.load(std::memory_order_relaxed);
   }
   /// False for a view whose silhouette could not be described when the database was built.
   bool Usable(int model, int view, int shell = 0) const {
@@ -104,6 +120,11 @@ class ViewSpectra {
   std::vector<uint8_t> usable_;
   /// Per (model, shell, view): ViewDatabase::ApparentRadius.
   std::vector<float> apparent_;
+  /// Bytes of the tables above.
+  size_t table_bytes_ = 0;
+  /// Spectra made, and the bytes of their coefficients and magnitudes.
+  mutable std::atomic<size_t> num_computed_{0};
+  mutable std::atomic<size_t> spectrum_bytes_{0};
 };
 
 class ViewMatcher {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <numbers>
 #include <random>
+#include <thread>
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
@@ -233,6 +234,187 @@ TEST(ViewMatcher, ModelSubsetAndUnusableViewsAreRespected) {
       EXPECT_FALSE(candidate.model == 1 && candidate.view == 7);
     }
   }
+}
+
+// MakeDatabase with a second distance shell: shell 1 holds each view's signature reversed (another
+// shape), and view 3 of model 0 is unusable in shell 1.
+SyntheticDatabase MakeTwoShellDatabase(int num_models, int num_views, int length, uint32_t seed) {
+  SyntheticDatabase synthetic = MakeDatabase(num_models, num_views, length, seed);
+  ViewDatabase& database = synthetic.database;
+  database.parameters.distances_in_radii = {3.0, 6.0};
+  for (ModelViews& model : database.models) {
+    const std::vector<float> shell0 = model.signatures;
+    model.views_per_shell = num_views;
+    model.views.resize(2 * model.views.size(), model.views.front());
+    model.signatures.resize(2 * shell0.size());
+    for (int v = 0; v < num_views; ++v) {
+      const std::span<const float> radii(shell0.data() + static_cast<size_t>(v * length),
+                                         static_cast<size_t>(length));
+      std::reverse_copy(radii.begin(), radii.end(), model.MutableSignature(v, 1).begin());
+    }
+  }
+  database.models[0].views[static_cast<size_t>(num_views + 3)].status = SignatureStatus::kTooSmall;
+  return synthetic;
+}
+
+void ExpectSameSpectrum(const SignatureSpectrum& a, const SignatureSpectrum& b) {
+  ASSERT_EQ(a.coefficients.size(), b.coefficients.size());
+  ASSERT_EQ(a.magnitudes.size(), b.magnitudes.size());
+  EXPECT_EQ(a.has_variance, b.has_variance);
+  EXPECT_EQ(std::memcmp(a.coefficients.data(), b.coefficients.data(),
+                        a.coefficients.size() * sizeof(a.coefficients[0])),
+            0);
+  EXPECT_EQ(std::memcmp(a.magnitudes.data(), b.magnitudes.data(),
+                        a.magnitudes.size() * sizeof(a.magnitudes[0])),
+            0);
+}
+
+TEST(ViewSpectra, KeepOnlyTheSmoothedHarmonicsAndCorrelateExactlyAsTheFullSpectra) {
+  const SyntheticDatabase synthetic = MakeDatabase(2, 40, 1000, 21);
+  for (const double smoothing : {2.0, 0.5, 0.0}) {
+    const CorrelationOptions options{.smoothing_deg = smoothing};
+    const ViewSpectra spectra(synthetic.database, options);
+    CircularCorrelator correlator(1000, options);
+    if (smoothing == 2.0) {
+      EXPECT_EQ(correlator.harmonics(), 151u);
+    } else if (smoothing == 0.0) {
+      EXPECT_EQ(correlator.harmonics(), 501u);
+    }
+    std::mt19937 rng(22);
+    for (int trial = 0; trial < 10; ++trial) {
+      const std::vector<float> query_radii = RandomSignature(rng, 1000);
+      const SignatureSpectrum query = correlator.Transform(query_radii);
+      for (int v = trial; v < 40; v += 10) {
+        const SignatureSpectrum full =
+            correlator.Transform(synthetic.database.models[1].Signature(v));
+        const SignatureSpectrum& kept = spectra.Get(1, v);
+        // The stored spectrum is the full one's first harmonics(); the rest are exactly 0.
+        ASSERT_EQ(kept.coefficients.size(), correlator.harmonics());
+        ASSERT_EQ(full.coefficients.size(), 501u);
+        EXPECT_EQ(std::memcmp(kept.coefficients.data(), full.coefficients.data(),
+                              kept.coefficients.size() * sizeof(kept.coefficients[0])),
+                  0);
+        for (size_t k = kept.coefficients.size(); k < full.coefficients.size(); ++k) {
+          ASSERT_EQ(full.coefficients[k], std::complex<float>(0.0f, 0.0f)) << "harmonic " << k;
+        }
+        EXPECT_EQ(kept.magnitudes, full.magnitudes);
+        // Every correlation gives the very same values with either.
+        const CorrelationPeak a = correlator.Peak(query, kept);
+        const CorrelationPeak b = correlator.Peak(query, full);
+        EXPECT_EQ(a.score, b.score);
+        EXPECT_EQ(a.shift_bins, b.shift_bins);
+        const double shift = 1000.0 * trial / 10.0 + 0.3;
+        EXPECT_EQ(correlator.ScoreAtShift(query, kept, shift),
+                  correlator.ScoreAtShift(query, full, shift));
+        std::vector<float> e_kept(1000), e_full(1000);
+        correlator.Correlate(query, kept, e_kept);
+        correlator.Correlate(query, full, e_full);
+        EXPECT_EQ(e_kept, e_full);
+        const std::vector<double> starts = {0.0, 250.5, 740.0};
+        std::vector<CorrelationPeak> local_kept(3), local_full(3);
+        correlator.LocalPeaks(query, kept, starts, 30.0, local_kept);
+        correlator.LocalPeaks(query, full, starts, 30.0, local_full);
+        for (size_t i = 0; i < starts.size(); ++i) {
+          EXPECT_EQ(local_kept[i].score, local_full[i].score);
+          EXPECT_EQ(local_kept[i].shift_bins, local_full[i].shift_bins);
+        }
+      }
+    }
+  }
+}
+
+TEST(ViewSpectra, ComputeAllMakesTheSpectraGetMakesLazily) {
+  const SyntheticDatabase synthetic = MakeTwoShellDatabase(3, 60, 1000, 23);
+  const ViewDatabase& database = synthetic.database;
+  const ViewSpectra lazy(database);
+  const ViewSpectra eager(database);
+  EXPECT_EQ(eager.num_computed(), 0u);
+  eager.ComputeAll(2);
+  // Every view whose silhouette was described, in both shells; not the unusable one.
+  EXPECT_EQ(eager.num_computed(), 3u * 60u * 2u - 1u);
+  for (int m = 0; m < 3; ++m) {
+    for (int s = 0; s < 2; ++s) {
+      for (int v = 0; v < 60; ++v) ExpectSameSpectrum(lazy.Get(m, v, s), eager.Get(m, v, s));
+    }
+  }
+  EXPECT_TRUE(eager.Get(0, 3, 1).coefficients.empty());
+  EXPECT_FALSE(eager.Get(0, 3, 0).coefficients.empty());
+  // Shell 1 is not shell 0 (the index is decoded right).
+  EXPECT_NE(eager.Get(2, 5, 1).coefficients, eager.Get(2, 5, 0).coefficients);
+  EXPECT_EQ(lazy.num_computed(), eager.num_computed());
+  EXPECT_EQ(lazy.MemoryBytes(), eager.MemoryBytes());
+  // Again: nothing more is made.
+  eager.ComputeAll(1);
+  EXPECT_EQ(eager.num_computed(), 3u * 60u * 2u - 1u);
+  EXPECT_EQ(eager.MemoryBytes(), lazy.MemoryBytes());
+
+  // The same search results, value for value, in each shell.
+  ViewMatcher lazy_matcher(lazy);
+  ViewMatcher eager_matcher(eager);
+  std::mt19937 rng(24);
+  for (int trial = 0; trial < 10; ++trial) {
+    const std::vector<float> query = RandomSignature(rng, 1000);
+    for (const double apparent : {0.0, 1.0}) {
+      for (const bool exhaustive : {false, true}) {
+        const MatchOptions options{
+            .top_k = 8, .exhaustive = exhaustive, .apparent_radius = apparent};
+        const auto a = lazy_matcher.Match(query, options);
+        const auto b = eager_matcher.Match(query, options);
+        ASSERT_EQ(a.size(), b.size());
+        for (size_t i = 0; i < a.size(); ++i) {
+          EXPECT_EQ(a[i].model, b[i].model);
+          EXPECT_EQ(a[i].view, b[i].view);
+          EXPECT_EQ(a[i].shell, b[i].shell);
+          EXPECT_EQ(a[i].score, b[i].score);
+          EXPECT_EQ(a[i].roll_deg, b[i].roll_deg);
+        }
+      }
+    }
+  }
+}
+
+TEST(ViewSpectra, ComputeAllRunsBesideLazyUsers) {
+  const SyntheticDatabase synthetic = MakeTwoShellDatabase(2, 200, 256, 25);
+  const ViewSpectra shared(synthetic.database);
+  const ViewSpectra reference(synthetic.database);
+  std::thread reader([&] {
+    for (int m = 1; m >= 0; --m) {
+      for (int v = 199; v >= 0; --v) (void)shared.Get(m, v, 1);
+    }
+  });
+  shared.ComputeAll(0);
+  reader.join();
+  EXPECT_EQ(shared.num_computed(), 2u * 200u * 2u - 1u);
+  for (int m = 0; m < 2; ++m) {
+    for (int s = 0; s < 2; ++s) {
+      for (int v = 0; v < 200; v += 7)
+        ExpectSameSpectrum(shared.Get(m, v, s), reference.Get(m, v, s));
+    }
+  }
+}
+
+TEST(ViewSpectra, MemoryAccountingCountsTheTablesAndEachSpectrumMade) {
+  const SyntheticDatabase synthetic = MakeTwoShellDatabase(2, 50, 1000, 26);
+  const ViewSpectra spectra(synthetic.database);
+  const size_t records = 2 * 2 * 50;
+  const size_t tables = spectra.MemoryBytes();
+  EXPECT_GE(tables, records * (sizeof(SignatureSpectrum) + sizeof(float) + 1));
+  EXPECT_LT(tables, records * (sizeof(SignatureSpectrum) + 64));
+  // One spectrum: 151 coefficients and 151 magnitudes at M = 1000 and 2 degrees of smoothing.
+  const size_t per_spectrum = 151 * (sizeof(std::complex<float>) + sizeof(float));
+  (void)spectra.Get(1, 10, 1);
+  EXPECT_EQ(spectra.num_computed(), 1u);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
+  (void)spectra.Get(1, 10, 1);  // made once
+  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
+  (void)spectra.Get(0, 3, 1);  // unusable: nothing made
+  EXPECT_EQ(spectra.num_computed(), 1u);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
+  spectra.ComputeAll();
+  EXPECT_EQ(spectra.num_computed(), records - 1);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + (records - 1) * per_spectrum);
+  // Less than a third of the full spectra's 501 coefficients and magnitudes.
+  EXPECT_LT(per_spectrum * 3, 501 * (sizeof(std::complex<float>) + sizeof(float)));
 }
 
 TEST(ViewMatcher, BadQueriesAndOptionsAreErrors) {
