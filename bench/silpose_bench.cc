@@ -157,6 +157,25 @@ BENCHMARK(BM_MatchDatabase)
     ->Args({1, 5})
     ->Unit(benchmark::kMillisecond);
 
+// Every view's spectrum at once (ViewSpectra::ComputeAll, what a tracker can do in its constructor
+// instead of making each spectrum on first use), on 1 and 2 threads; spectra_MB is what they hold.
+void BM_ViewSpectraComputeAll(benchmark::State& state) {
+  const ViewDatabase& database = BenchDatabase();
+  size_t bytes = 0;
+  size_t computed = 0;
+  for (auto _ : state) {
+    const ViewSpectra spectra(database);
+    spectra.ComputeAll(static_cast<int>(state.range(0)));
+    bytes = spectra.MemoryBytes();
+    computed = spectra.num_computed();
+  }
+  state.counters["spectra"] = static_cast<double>(computed);
+  state.counters["spectra_MB"] = static_cast<double>(bytes) / (1024.0 * 1024.0);
+  state.SetLabel(std::to_string(database.models.size()) + " models x " +
+                 std::to_string(database.num_shells()) + " shells x 1000 views");
+}
+BENCHMARK(BM_ViewSpectraComputeAll)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 void BM_BuildDatabase(benchmark::State& state) {
   const std::vector<std::filesystem::path> models = BenchModels();
   DatabaseBuildOptions options;

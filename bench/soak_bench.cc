@@ -11,6 +11,7 @@
 //   SILPOSE_SOAK_FRAMES=5000 build/release/bench/silpose_soak_bench
 
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -46,6 +47,17 @@ double ResidentMegabytes() {
          (1024.0 * 1024.0);
 }
 
+// Heap bytes in use (malloc), MB: what resident memory would be without freed blocks kept.
+double HeapInUseMegabytes() {
+  const struct mallinfo2 info = ::mallinfo2();
+  return static_cast<double>(info.uordblks + info.hblkhd) / (1024.0 * 1024.0);
+}
+
+void PrintStage(const char* stage) {
+  std::fprintf(stderr, "soak: %-40s rss %8.1f MB  heap in use %8.1f MB\n", stage,
+               ResidentMegabytes(), HeapInUseMegabytes());
+}
+
 int SoakFrames() {
   const char* env = std::getenv("SILPOSE_SOAK_FRAMES");
   const int frames = env != nullptr ? std::atoi(env) : 100000;
@@ -71,36 +83,61 @@ void BM_SoakTrackMaskVideo(benchmark::State& state) {
   const std::vector<std::filesystem::path> models = BenchModels();
   DatabaseBuildOptions build;
   build.num_threads = 0;
+  PrintStage("start");
   const ViewDatabase database = BuildViewDatabase(models, build);
-  std::vector<TriangleMesh> shown;
-  for (size_t i = 0; i < models.size() && shown.size() < 3;
-       i += std::max<size_t>(1, models.size() / 3))
-    shown.push_back(LoadMesh(models[i]));
-  SequenceOptions options;
-  options.trajectory.kind = TrajectoryKind::kWalk;
-  options.trajectory.num_frames = kVideoFrames;
-  options.trajectory.object_switches =
-      CyclicObjectSwitches(static_cast<int>(shown.size()), kVideoFrames, 250);
-  const SyntheticSequence sequence(shown, options);
+  PrintStage("database built");
+  {
+    size_t signatures = 0, records = 0, meshes = 0;
+    for (const ModelViews& m : database.models) {
+      signatures += m.signatures.capacity() * sizeof(float);
+      records += m.views.capacity() * sizeof(ViewRecord);
+      meshes += m.mesh.vertices.capacity() * sizeof(m.mesh.vertices[0]) +
+                m.mesh.triangles.capacity() * sizeof(m.mesh.triangles[0]);
+    }
+    std::fprintf(
+        stderr, "soak: database: %zu models, signatures %.1f MB, records %.1f MB, meshes %.1f MB\n",
+        database.models.size(), static_cast<double>(signatures) / 1048576.0,
+        static_cast<double>(records) / 1048576.0, static_cast<double>(meshes) / 1048576.0);
+  }
   const std::filesystem::path folder =
       std::filesystem::temp_directory_path() / ("silpose_soak_bench_" + std::to_string(::getpid()));
   std::filesystem::create_directories(folder);
   const std::filesystem::path video = folder / "masks.avi";
+  // The meshes and the synthetic sequence are needed only to write the video: they are gone before
+  // the tracker is made, so that the resident memory below is what `silpose track` holds.
+  PinholeCamera camera;
   {
+    std::vector<TriangleMesh> shown;
+    for (size_t i = 0; i < models.size() && shown.size() < 3;
+         i += std::max<size_t>(1, models.size() / 3))
+      shown.push_back(LoadMesh(models[i]));
+    SequenceOptions options;
+    options.trajectory.kind = TrajectoryKind::kWalk;
+    options.trajectory.num_frames = kVideoFrames;
+    options.trajectory.object_switches =
+        CyclicObjectSwitches(static_cast<int>(shown.size()), kVideoFrames, 250);
+    const SyntheticSequence sequence(std::move(shown), options);
+    camera = sequence.camera();
     VideoWriterOptions lossless;
     lossless.avi_codec = AviCodec::kPng;
-    auto writer = OpenVideoWriter(video, {sequence.camera().width_px, sequence.camera().height_px},
-                                  30.0, lossless);
+    auto writer = OpenVideoWriter(video, {camera.width_px, camera.height_px}, 30.0, lossless);
     for (int k = 0; k < kVideoFrames; ++k) writer->Write(sequence.Generate(k).mask);
     writer->Close();
+    PrintStage("video written");
   }
+  PrintStage("sequence and meshes released");
+  // Building the database and rendering leave freed heap that a process reading a database file
+  // would not have (kept by malloc, much of it in the worker threads' arenas): give it back.
+  ::malloc_trim(0);
+  PrintStage("freed set-up memory returned");
 
   cv::setNumThreads(1);
   const int total = SoakFrames();
   std::vector<Sample> samples;
   int with_pose = 0;
   for (auto _ : state) {
-    Tracker tracker(database, sequence.camera(), TrackerOptions());
+    Tracker tracker(database, camera, TrackerOptions());
+    PrintStage("tracker made");
     std::unique_ptr<FrameSource> source;
     auto block_start = std::chrono::steady_clock::now();
     double block_cpu_start = ProcessCpuMs();
@@ -117,9 +154,11 @@ void BM_SoakTrackMaskVideo(benchmark::State& state) {
         const double wall = std::chrono::duration<double, std::milli>(now - block_start).count();
         const double cpu = ProcessCpuMs() - block_cpu_start;
         samples.push_back({frame, ResidentMegabytes(), cpu / kSampleEvery, wall / kSampleEvery});
-        std::fprintf(stderr, "soak: frame %6d  rss %8.1f MB  %7.3f ms/frame CPU  %7.3f wall\n",
-                     frame, samples.back().rss_mb, samples.back().ms_per_frame,
-                     samples.back().wall_ms_per_frame);
+        std::fprintf(
+            stderr,
+            "soak: frame %6d  rss %8.1f MB  heap %8.1f MB  %7.3f ms/frame CPU  %7.3f wall\n", frame,
+            samples.back().rss_mb, HeapInUseMegabytes(), samples.back().ms_per_frame,
+            samples.back().wall_ms_per_frame);
         block_start = std::chrono::steady_clock::now();
         block_cpu_start = ProcessCpuMs();
       }
