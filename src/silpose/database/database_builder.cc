@@ -41,9 +41,11 @@ DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, 
   const double resolution = parameters.render.resolution_px;
   estimate.build_memory_bytes =
       2.0 * estimate.file_bytes + std::max(num_threads, 1) * 2.0 * resolution * resolution;
-  // A spectrum: M/2 + 1 complex floats and as many magnitudes, plus two vectors' bookkeeping.
+  // A spectrum: a complex float and a magnitude per harmonic the default 2-degree smoothing keeps
+  // (match/view_matcher.h: at most 151, M/2 + 1 for shorter signatures), plus two vectors'
+  // bookkeeping.
   estimate.match_memory_bytes =
-      2.0 * estimate.file_bytes + records * ((length / 2.0 + 1.0) * 12.0 + 64.0);
+      2.0 * estimate.file_bytes + records * (std::min(length / 2.0 + 1.0, 151.0) * 12.0 + 64.0);
   return estimate;
 }
 
