@@ -881,6 +881,35 @@ void BindTrack(py::module_& m) {
           [](const TrackResult& r) { return OptionalFloat(r.result.effective_particles); },
           "Effective number of particles, or None.")
       .def_property_readonly(
+          "confidence", [](const TrackResult& r) { return OptionalFloat(r.result.confidence); },
+          "Probability, in [0, 1], that the object is right and the rotation within 10 degrees "
+          "(0 without a silhouette, None without any estimate); see docs/confidence.md.")
+      .def_property_readonly(
+          "state", [](const TrackResult& r) { return std::string(TrackStateName(r.result.state)); },
+          "What the result can be trusted for: 'tracking', 'ambiguous', 'unknown-object', "
+          "'bad-segmentation', 'lost' or 'no-silhouette'.")
+      .def_property_readonly(
+          "iou", [](const TrackResult& r) { return OptionalFloat(r.result.iou); },
+          "IoU of the model's silhouette at the refined pose with the mask, or None.")
+      .def_property_readonly(
+          "runner_up",
+          [](const TrackResult& r) -> py::object {
+            if (r.result.runner_up_object < 0) return py::none();
+            py::dict d;
+            d["object"] = r.result.runner_up_name;
+            d["object_index"] = r.result.runner_up_object;
+            d["mass"] = OptionalFloat(r.result.runner_up_mass);
+            d["view_dir"] = r.result.runner_up_view_dir
+                                ? py::cast(std::vector<double>{r.result.runner_up_view_dir->x(),
+                                                               r.result.runner_up_view_dir->y(),
+                                                               r.result.runner_up_view_dir->z()})
+                                : py::none();
+            d["roll_deg"] = OptionalFloat(r.result.runner_up_roll_deg);
+            return d;
+          },
+          "The particle filter's strongest other hypothesis as a dict (object, object_index, "
+          "mass, view_dir, roll_deg), or None.")
+      .def_property_readonly(
           "segmentation", [](const TrackResult& r) { return r.segmentation; },
           "Segmentation status: 'ok', 'learning', 'empty' or 'too-large'.")
       .def_property_readonly(

@@ -73,6 +73,12 @@ def test_tracker_on_masks_finds_the_object_and_pose(cli_database, tmp_path):
                               truth["camera_from_object"][:3, 3]) < 0.15 * distance
         assert result.mask.shape == (480, 640) and result.segmentation == "ok"
         assert not result.mask.flags.owndata  # a view of the library's mask
+        assert 0.0 <= result.confidence <= 1.0
+        assert result.state in ("tracking", "ambiguous", "unknown-object", "bad-segmentation",
+                                "lost")
+        assert 0.0 < result.iou <= 1.0
+    # A clean orbit of a database object: trusted once identified.
+    assert sum(r.state == "tracking" for r in results[3:]) >= 5
 
 
 def test_a_frame_without_silhouette_has_no_pose(cli_database):
@@ -81,6 +87,8 @@ def test_a_frame_without_silhouette_has_no_pose(cli_database):
     assert result.camera_from_object is None and result.object_name is None
     assert result.score is None and result.view_dir is None and result.roll_deg is None
     assert result.segmentation == "empty" and result.status.startswith("predicted")
+    assert result.state == "no-silhouette" and result.confidence is None
+    assert result.runner_up is None
 
 
 def test_tracker_keeps_its_database_alive(cli_database):

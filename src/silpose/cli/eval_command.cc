@@ -364,6 +364,7 @@ void AddEvalCommand(CLI::App& app) {
   AddEvalVideoCommand(eval);
   AddEvalBopCommand(eval);
   AddEvalHandheldCommand(eval);
+  AddEvalConfidenceCommand(eval);
 }
 
 }  // namespace silpose::cli

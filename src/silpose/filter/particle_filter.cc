@@ -88,6 +88,8 @@ bool ParticleFilterOptions::Check(std::string* error) const {
     message << "cut score gap must be in [0, 2], got " << cut_score_gap;
   } else if (max_history_frames < 0) {
     message << "max history frames must be >= 0, got " << max_history_frames;
+  } else if (!(mode_radius_deg > 0.0 && mode_radius_deg <= 90.0)) {
+    message << "mode radius must be in (0, 90] degrees, got " << mode_radius_deg;
   } else {
     return true;
   }
@@ -137,6 +139,8 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
                                                sphere.directions[sphere.neighbour_indices[e]]);
     }
   }
+  for (const ModelViews& model : spectra.database().models)
+    equivalence_.emplace_back(model.symmetry);
   view_rotation_.resize(static_cast<size_t>(num_views_));
   for (int v = 0; v < num_views_; ++v) {
     view_rotation_[static_cast<size_t>(v)] =
@@ -338,6 +342,7 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   estimate.score = chosen.score;
   estimate.weight = chosen.weight;
   best_history_ = chosen.history;
+  AnalyseModes(&estimate);
   if (frame != nullptr && frame->has_variance) last_estimate_score_ = chosen.score;
   UpdateVelocity(estimate);
   estimate.speed_deg = velocity_.norm() / kRadPerDeg;
@@ -353,6 +358,46 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   }
   ++frame_;
   return estimate;
+}
+
+void ParticleFilter::AnalyseModes(FilterEstimate* estimate) const {
+  if (estimate->object < 0 || estimate->view < 0 || particles_.empty()) return;
+  const double radius = options_.mode_radius_deg;
+  const auto direction = [&](int view) -> const Eigen::Vector3d& {
+    return sphere_.directions[static_cast<size_t>(view)];
+  };
+  double total = 0.0;
+  for (const Particle& p : particles_) total += p.weight;
+  if (!(total > 0.0)) return;
+  std::vector<uint8_t> in_mode(particles_.size(), 0);
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(estimate->object)];
+  const Eigen::Vector3d& centre = direction(estimate->view);
+  double mode = 0.0;
+  size_t runner = particles_.size();
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    const Particle& p = particles_[i];
+    if (p.object == estimate->object && same.AngleDeg(direction(p.view), centre) <= radius) {
+      in_mode[i] = 1;
+      mode += p.weight;
+    } else if (runner == particles_.size() || p.weight > particles_[runner].weight ||
+               (p.weight == particles_[runner].weight && p.score > particles_[runner].score)) {
+      runner = i;
+    }
+  }
+  estimate->mode_mass = mode / total;
+  estimate->runner_up = {};
+  if (runner == particles_.size()) return;
+  const Particle& r = particles_[runner];
+  const ViewEquivalence& other = equivalence_[static_cast<size_t>(r.object)];
+  double mass = 0.0;
+  for (size_t i = 0; i < particles_.size(); ++i) {
+    const Particle& p = particles_[i];
+    if (!in_mode[i] && p.object == r.object &&
+        other.AngleDeg(direction(p.view), direction(r.view)) <= radius)
+      mass += p.weight;
+  }
+  estimate->runner_up = {r.object,     r.view,  r.roll_known ? r.roll_deg : 0.0,
+                         r.roll_known, r.score, mass / total};
 }
 
 size_t ParticleFilter::MostProbableAreaParticle(const FilterEstimate& estimate) {

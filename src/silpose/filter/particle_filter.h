@@ -182,6 +182,7 @@
 #include <string>
 #include <vector>
 
+#include "silpose/geometry/symmetry.h"
 #include "silpose/geometry/view_sphere.h"
 #include "silpose/match/circular_correlator.h"
 #include "silpose/match/view_matcher.h"
@@ -322,6 +323,9 @@ struct ParticleFilterOptions {
   int max_particles_per_object = 300;
 
   EstimateRule estimate_rule = EstimateRule::kMostProbableArea;
+  /// Radius of a posterior mode (FilterEstimate::mode_mass, runner_up), degrees of view
+  /// direction, in (0, 90].
+  double mode_radius_deg = 15.0;
 
   /// Keep about this many frames of history (see the file comment); 0 = all.
   int64_t max_history_frames = 0;
@@ -412,6 +416,23 @@ struct FilterEstimate {
   /// 1 / sum(w^2) over the normalised weights, before resampling.
   double effective_particles = 0.0;
   bool resampled = false;
+  /// The posterior's modes after the measurement (before resampling), for the tracker's
+  /// confidence and ambiguity (docs/confidence.md). mode_mass: the share of the total weight on
+  /// particles of the estimate's object whose view lies within mode_radius_deg of the estimate's
+  /// (modulo the object's rotational symmetries, geometry/symmetry.h ViewEquivalence).
+  double mode_mass = 0.0;
+  /// The strongest other hypothesis: the heaviest particle outside that mode (another object, or
+  /// a view of the same object farther than mode_radius_deg: e.g. a mirror twin) and the share of
+  /// the weight within mode_radius_deg of it (same object, outside the first mode). object = -1
+  /// and mass = 0 when every particle is in the first mode.
+  struct RunnerUp {
+    int object = -1;
+    int view = -1;
+    double roll_deg = 0.0;
+    bool roll_known = false;
+    float score = 0.0f;
+    double mass = 0.0;
+  } runner_up;
 };
 
 class ParticleFilter {
@@ -491,6 +512,7 @@ class ParticleFilter {
   std::vector<CandidateView> BestViewsOfObject(const SignatureSpectrum& frame, int object,
                                                int count);
   int ShellOf(int object, int view) const;
+  void AnalyseModes(FilterEstimate* estimate) const;
   bool RankingReady() const { return ranking_harmonics_ > 0; }
   void CutHistory(int64_t oldest_kept_frame);
   Particle FreshParticle(int object);
@@ -498,6 +520,8 @@ class ParticleFilter {
 
   const ViewSphere& sphere_;
   const ViewSpectra& spectra_;
+  /// Per object: views alike by its symmetries (AnalyseModes).
+  std::vector<ViewEquivalence> equivalence_;
   ParticleFilterOptions options_;
   int num_objects_ = 0;
   int num_views_ = 0;

@@ -203,6 +203,27 @@ double ViewErrorModuloSymmetry(const Eigen::Vector3d& estimated, const Eigen::Ve
   return best;
 }
 
+ViewEquivalence::ViewEquivalence(const ObjectSymmetry& symmetry) {
+  for (const Rigid3& s : symmetry.discrete) rotations_.push_back(s.rotation);
+  if (!symmetry.continuous.empty() && symmetry.continuous.front().axis.norm() > 0.0) {
+    continuous_ = true;
+    axis_ = symmetry.continuous.front().axis.normalized();
+  }
+}
+
+double ViewEquivalence::AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
+  double best = std::numeric_limits<double>::infinity();
+  const double b_to_axis = continuous_ ? std::acos(std::clamp(b.dot(axis_), -1.0, 1.0)) : 0.0;
+  for (const Eigen::Matrix3d& r : rotations_) {
+    const Eigen::Vector3d u = r.transpose() * a;
+    const double angle = continuous_
+                             ? std::abs(std::acos(std::clamp(u.dot(axis_), -1.0, 1.0)) - b_to_axis)
+                             : std::acos(std::clamp(u.dot(b), -1.0, 1.0));
+    best = std::min(best, angle);
+  }
+  return best * 180.0 / std::numbers::pi;
+}
+
 Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object,
                          const ObjectSymmetry& symmetry) {
   if (!symmetry.HasRotations()) return Rigid3();

@@ -92,6 +92,26 @@ double ViewErrorModuloSymmetry(const Eigen::Vector3d& estimated, const Eigen::Ve
 /// of P is P * S. The identity for an object without rotations.
 Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object, const ObjectSymmetry& symmetry);
 
+/// The angle between two camera directions modulo an object's rotational symmetries: the
+/// smallest angle, degrees, between d_a and any direction equivalent to it (R_S^T d_a for the
+/// identity, the discrete rotations and, for a continuous symmetry about axis u, every turn about
+/// u, which leaves only the difference of the two directions' angles to u). Exact for continuous
+/// symmetries (no sampling); mirror planes play no part. Built once per object; AngleDeg is
+/// O(number of discrete rotations).
+class ViewEquivalence {
+ public:
+  /// No symmetry: the plain angle.
+  ViewEquivalence() = default;
+  explicit ViewEquivalence(const ObjectSymmetry& symmetry);
+  /// Unit directions (model frame) in, degrees in [0, 180] out.
+  double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+
+ private:
+  std::vector<Eigen::Matrix3d> rotations_ = {Eigen::Matrix3d::Identity()};
+  bool continuous_ = false;
+  Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();
+};
+
 /// A unit vector perpendicular to the unit vector `axis`, fixed by the axis alone (the cross
 /// product with the coordinate axis least aligned with it).
 Eigen::Vector3d FixedPerpendicular(const Eigen::Vector3d& axis);

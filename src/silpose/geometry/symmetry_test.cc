@@ -137,3 +137,34 @@ TEST(Symmetry, DescribeAndCheck) {
 
 }  // namespace
 }  // namespace silpose
+
+namespace silpose {
+namespace {
+
+TEST(ViewEquivalence, AnglesModuloContinuousAndDiscreteSymmetries) {
+  const Eigen::Vector3d a = Eigen::Vector3d(1.0, 0.0, 1.0).normalized();
+  const Eigen::Vector3d b = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();  // a turned 90 deg about z
+  EXPECT_NEAR(ViewEquivalence().AngleDeg(a, b), 60.0, 1e-9);
+  ObjectSymmetry bottle;
+  bottle.continuous.push_back({Eigen::Vector3d(0, 0, 2), Eigen::Vector3d::Zero()});
+  const ViewEquivalence about_z(bottle);
+  EXPECT_NEAR(about_z.AngleDeg(a, b), 0.0, 1e-9);
+  // Only the angle to the axis counts: 45 deg against 0 deg.
+  EXPECT_NEAR(about_z.AngleDeg(a, Eigen::Vector3d::UnitZ()), 45.0, 1e-9);
+  // A flip (180 deg about x) makes +z and -z alike.
+  ObjectSymmetry flip;
+  flip.discrete.push_back(
+      {Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX()).toRotationMatrix(),
+       Eigen::Vector3d::Zero()});
+  EXPECT_NEAR(ViewEquivalence(flip).AngleDeg(Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitZ()),
+              0.0, 1e-9);
+  EXPECT_NEAR(ViewEquivalence().AngleDeg(Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitZ()),
+              180.0, 1e-9);
+  // Mirror planes make no two views equivalent.
+  ObjectSymmetry mirror;
+  mirror.mirrors.push_back({Eigen::Vector3d::UnitX(), Eigen::Vector3d::Zero()});
+  EXPECT_NEAR(ViewEquivalence(mirror).AngleDeg(a, b), 60.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace silpose

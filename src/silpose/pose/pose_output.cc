@@ -65,10 +65,42 @@ nlohmann::json JsonNumber(double value) {
 
 }  // namespace
 
+const char* TrackStateName(TrackState state) {
+  switch (state) {
+    case TrackState::kTracking:
+      return "tracking";
+    case TrackState::kAmbiguous:
+      return "ambiguous";
+    case TrackState::kUnknownObject:
+      return "unknown-object";
+    case TrackState::kBadSegmentation:
+      return "bad-segmentation";
+    case TrackState::kLost:
+      return "lost";
+    case TrackState::kNoSilhouette:
+      return "no-silhouette";
+  }
+  return "unknown";
+}
+
+bool ParseTrackState(std::string_view name, TrackState* state) {
+  for (TrackState s :
+       {TrackState::kTracking, TrackState::kAmbiguous, TrackState::kUnknownObject,
+        TrackState::kBadSegmentation, TrackState::kLost, TrackState::kNoSilhouette}) {
+    if (name == TrackStateName(s)) {
+      *state = s;
+      return true;
+    }
+  }
+  return false;
+}
+
 const char* PosesCsvHeader() {
   return "frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,"
          "effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,time_segment_ms,"
-         "time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms";
+         "time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms,confidence,state,iou,"
+         "runner_up_object,runner_up_mass,runner_up_view_x,runner_up_view_y,runner_up_view_z,"
+         "runner_up_roll_deg";
 }
 
 PosesCsvWriter::PosesCsvWriter(const std::filesystem::path& path) : path_(path) {
@@ -105,6 +137,16 @@ void PosesCsvWriter::Write(const FrameResult& result) {
   for (const double ms : {result.time_segment_ms, result.time_describe_ms, result.time_match_ms,
                           result.time_pose_ms, result.time_refine_ms})
     line += ',' + OptionalNumber(ms);
+  line += ',' + OptionalNumber(result.confidence);
+  line += ',' + std::string(TrackStateName(result.state));
+  line += ',' + OptionalNumber(result.iou);
+  line += ',' + (result.runner_up_object >= 0 ? CsvField(result.runner_up_name) : std::string());
+  line += ',' + OptionalNumber(result.runner_up_mass);
+  for (int i = 0; i < 3; ++i) {
+    line += ',';
+    if (result.runner_up_view_dir) line += Number((*result.runner_up_view_dir)[i]);
+  }
+  line += ',' + OptionalNumber(result.runner_up_roll_deg);
   WriteLine(path_, &stream_, line);
 }
 
@@ -148,6 +190,25 @@ void JsonLinesWriter::Write(const FrameResult& result) {
     object["pose"] = {{"R", rows}, {"t", {translation.x(), translation.y(), translation.z()}}};
   } else {
     object["pose"] = nullptr;
+  }
+  object["confidence"] = JsonNumber(result.confidence);
+  object["state"] = TrackStateName(result.state);
+  object["iou"] = JsonNumber(result.iou);
+  if (result.runner_up_object >= 0) {
+    nlohmann::json runner_up;
+    runner_up["object"] = result.runner_up_name;
+    runner_up["object_index"] = result.runner_up_object;
+    runner_up["mass"] = JsonNumber(result.runner_up_mass);
+    if (result.runner_up_view_dir) {
+      const Eigen::Vector3d& d = *result.runner_up_view_dir;
+      runner_up["view_dir"] = {d.x(), d.y(), d.z()};
+    } else {
+      runner_up["view_dir"] = nullptr;
+    }
+    runner_up["roll_deg"] = JsonNumber(result.runner_up_roll_deg);
+    object["runner_up"] = runner_up;
+  } else {
+    object["runner_up"] = nullptr;
   }
   // Replace invalid UTF-8 in names rather than throwing midway through a run.
   WriteLine(path_, &stream_, object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));

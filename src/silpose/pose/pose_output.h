@@ -3,7 +3,9 @@
 //  - PosesCsvWriter: POSES.csv, one row per frame, header
 //      frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,particles,
 //      effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,time_segment_ms,
-//      time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms
+//      time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms,confidence,state,iou,
+//      runner_up_object,runner_up_mass,runner_up_view_x,runner_up_view_y,runner_up_view_z,
+//      runner_up_roll_deg
 //    with empty cells where a value is unknown (no object, no probability, no pose, ...);
 //  - JsonLinesWriter: one JSON object per frame and line, the same information (unknowns null);
 //  - BopCsvWriter: the BOP19 results format `scene_id,im_id,obj_id,score,R,t,time`, one row per
@@ -15,16 +17,45 @@
 // close in Close() (the destructor closes without checking).
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "silpose/geometry/rigid3.h"
 
 namespace silpose {
+
+/// What a frame's result can be trusted for (docs/confidence.md), a fixed set users can act on.
+/// POSES.csv / JSON column `state`.
+enum class TrackState : uint8_t {
+  /// The object and pose are trusted: confidence at or above the threshold, one clear mode.
+  kTracking,
+  /// Two or more hypotheses explain the silhouette about equally (a mirror twin view, a look-alike
+  /// object): the result's runner_up_* fields give the other one.
+  kAmbiguous,
+  /// The silhouette has fitted no database object for several frames: an object not in the
+  /// database is in view.
+  kUnknownObject,
+  /// The outline explains only part of the silhouette, or the silhouette changed abruptly, after
+  /// the object was tracked: an occluder, a hand, a segmentation failure.
+  kBadSegmentation,
+  /// Low confidence for none of the reasons above (the filter has not found or has lost the
+  /// object).
+  kLost,
+  /// No usable silhouette in this frame (segmentation found nothing, too small, ...): the result
+  /// is the filter's prediction.
+  kNoSilhouette,
+};
+
+/// "tracking", "ambiguous", "unknown-object", "bad-segmentation", "lost", "no-silhouette".
+const char* TrackStateName(TrackState state);
+/// Inverse of TrackStateName; false if `name` is none of them.
+bool ParseTrackState(std::string_view name, TrackState* state);
 
 /// What was found in one frame. NaN / empty / -1 mean "unknown" and give empty cells (CSV) or null
 /// (JSON).
@@ -66,6 +97,22 @@ struct FrameResult {
   double effective_particles = std::numeric_limits<double>::quiet_NaN();
   /// 6-DOF pose (object_to_camera), if estimated.
   std::optional<Rigid3> camera_from_object;
+  /// The probability, in [0, 1], that the object is right and the rotation within 10 degrees
+  /// (modulo the object's symmetry) (track/confidence.h); 0 for a frame without a silhouette,
+  /// NaN without any estimate.
+  double confidence = std::numeric_limits<double>::quiet_NaN();
+  /// What the result can be trusted for.
+  TrackState state = TrackState::kNoSilhouette;
+  /// Intersection over union of the model's silhouette at the refined pose with the frame's mask
+  /// (NaN when not refined).
+  double iou = std::numeric_limits<double>::quiet_NaN();
+  /// The strongest other hypothesis of the particle filter (FilterEstimate::runner_up): object
+  /// (-1 = none) and name, its share of the posterior weight, view direction and roll.
+  int runner_up_object = -1;
+  std::string runner_up_name;
+  double runner_up_mass = std::numeric_limits<double>::quiet_NaN();
+  std::optional<Eigen::Vector3d> runner_up_view_dir;
+  double runner_up_roll_deg = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The POSES.csv header line (without the newline).
@@ -91,7 +138,9 @@ class PosesCsvWriter {
 /// Writes JSON Lines: per frame one object {"frame", "frame_name", "status", "object",
 /// "object_index", "score", "probability", "view_dir" [x, y, z], "roll_deg", "time_ms",
 /// "time_segment_ms", "time_describe_ms", "time_match_ms", "time_pose_ms", "time_refine_ms",
-/// "particles", "effective_particles", "pose" {"R": 3 rows of 3, "t": [x, y, z]}}, unknowns null.
+/// "particles", "effective_particles", "pose" {"R": 3 rows of 3, "t": [x, y, z]}, "confidence",
+/// "state", "iou", "runner_up" {"object", "object_index", "mass", "view_dir", "roll_deg"}},
+/// unknowns null.
 class JsonLinesWriter {
  public:
   explicit JsonLinesWriter(const std::filesystem::path& path);

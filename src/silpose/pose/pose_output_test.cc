@@ -62,6 +62,16 @@ class PoseOutputTest : public ::testing::Test {
     frames[0].effective_particles = 123.4;
     frames[0].camera_from_object =
         CameraFromObjectAtView(Eigen::Vector3d(0.6, 0.0, 0.8), -12.5, 0.3, {0.01, 0.02, 0.03});
+    frames[0].confidence = 0.875;
+    frames[0].state = TrackState::kAmbiguous;
+    frames[0].iou = 0.96875;
+    frames[0].runner_up_object = 0;
+    frames[0].runner_up_name = "cow";
+    frames[0].runner_up_mass = 0.25;
+    frames[0].runner_up_view_dir = Eigen::Vector3d(0.0, 0.6, 0.8);
+    frames[0].runner_up_roll_deg = 45.0;
+    frames[1].confidence = 0.125;
+    frames[1].state = TrackState::kLost;
     frames[1].frame = 1;
     frames[1].status = "measured";
     frames[1].object = 0;
@@ -93,8 +103,10 @@ TEST_F(PoseOutputTest, PosesCsvHasTheHeaderAndOneRowPerFrame) {
   EXPECT_EQ(lines[0],
             "frame,object,score,probability,view_x,view_y,view_z,roll_deg,status,time_ms,"
             "particles,effective_particles,r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz,"
-            "time_segment_ms,time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms");
-  for (const std::string& line : lines) EXPECT_EQ(Split(line, ',').size(), 29u) << line;
+            "time_segment_ms,time_describe_ms,time_match_ms,time_pose_ms,time_refine_ms,"
+            "confidence,state,iou,runner_up_object,runner_up_mass,runner_up_view_x,"
+            "runner_up_view_y,runner_up_view_z,runner_up_roll_deg");
+  for (const std::string& line : lines) EXPECT_EQ(Split(line, ',').size(), 38u) << line;
   const std::vector<std::string> first = Split(lines[1], ',');
   EXPECT_EQ(first[0], "0");
   EXPECT_EQ(first[1], "bunny");
@@ -109,12 +121,21 @@ TEST_F(PoseOutputTest, PosesCsvHasTheHeaderAndOneRowPerFrame) {
   EXPECT_EQ(std::stod(first[26]), 1.25);
   EXPECT_EQ(std::stod(first[27]), 0.125);
   EXPECT_EQ(first[28], "");  // refinement did not run
+  EXPECT_EQ(std::stod(first[29]), 0.875);
+  EXPECT_EQ(first[30], "ambiguous");
+  EXPECT_EQ(std::stod(first[31]), 0.96875);
+  EXPECT_EQ(first[32], "cow");
+  EXPECT_EQ(std::stod(first[33]), 0.25);
+  EXPECT_EQ(std::stod(first[35]), 0.6);
+  EXPECT_EQ(std::stod(first[37]), 45.0);
   const std::vector<std::string> second = Split(lines[2], ',');
   EXPECT_EQ(second[1], "cow");
   EXPECT_EQ(second[3], "");   // probability unknown
   EXPECT_EQ(second[10], "");  // no particles
   for (int i = 12; i < 24; ++i) EXPECT_EQ(second[i], "");
-  EXPECT_EQ(lines[3], "2,,,,,,,,no-silhouette-empty,0.25,,,,,,,,,,,,,,,,,,,");
+  EXPECT_EQ(second[30], "lost");
+  for (int i = 31; i < 38; ++i) EXPECT_EQ(second[i], "");  // no IoU, no runner-up
+  EXPECT_EQ(lines[3], "2,,,,,,,,no-silhouette-empty,0.25,,,,,,,,,,,,,,,,,,,,,no-silhouette,,,,,,,");
   EXPECT_THROW(writer.Write(Frames()[0]), Error);  // after Close
 }
 
@@ -153,6 +174,15 @@ TEST_F(PoseOutputTest, JsonLinesParseBack) {
     }
     EXPECT_EQ(objects[0]["pose"]["t"][r].get<double>(), pose.translation[r]);
   }
+  EXPECT_EQ(objects[0]["confidence"].get<double>(), 0.875);
+  EXPECT_EQ(objects[0]["state"], "ambiguous");
+  EXPECT_EQ(objects[0]["runner_up"]["object"], "cow");
+  EXPECT_EQ(objects[0]["runner_up"]["mass"].get<double>(), 0.25);
+  EXPECT_EQ(objects[0]["runner_up"]["view_dir"].size(), 3u);
+  EXPECT_TRUE(objects[1]["runner_up"].is_null());
+  EXPECT_TRUE(objects[1]["iou"].is_null());
+  EXPECT_EQ(objects[2]["state"], "no-silhouette");
+  EXPECT_TRUE(objects[2]["confidence"].is_null());
   EXPECT_TRUE(objects[1]["probability"].is_null());
   EXPECT_TRUE(objects[1]["pose"].is_null());
   EXPECT_TRUE(objects[1]["frame_name"].is_null());

@@ -39,6 +39,10 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "refinement: " + problem;
     return false;
   }
+  if (!state.Check(&problem)) {
+    if (error != nullptr) *error = "state: " + problem;
+    return false;
+  }
   return true;
 }
 
@@ -71,6 +75,7 @@ Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
   if (database_.models.empty()) ThrowError("tracker: the database has no models");
   spectra_ = std::make_unique<ViewSpectra>(database_);
   segmenter_ = CreateSegmenter(options_.segmentation);
+  state_ = std::make_unique<TrackStateEstimator>(options_.state);
   if (options_.brute_force) {
     matcher_ = std::make_unique<ViewMatcher>(*spectra_);
   } else {
@@ -117,6 +122,52 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
   tracked->refinement = std::move(refined);
   // The refined orientation feeds the filter's velocity.
   if (filter_) filter_->ObserveRotation(on_axis);
+}
+
+void Tracker::Assess(TrackedFrame* tracked, bool usable) {
+  FrameResult& result = tracked->result;
+  if (tracked->refinement && options_.refinement.compute_iou) result.iou = tracked->refinement->iou;
+  const FilterEstimate* estimate = tracked->estimate ? &*tracked->estimate : nullptr;
+  if (estimate != nullptr && measured_frames_ > 0 && estimate->runner_up.object >= 0) {
+    const FilterEstimate::RunnerUp& r = estimate->runner_up;
+    result.runner_up_object = r.object;
+    result.runner_up_name = database_.models[static_cast<size_t>(r.object)].name;
+    result.runner_up_mass = r.mass;
+    result.runner_up_view_dir = database_.sphere.directions[static_cast<size_t>(r.view)];
+    if (r.roll_known) result.runner_up_roll_deg = r.roll_deg;
+  }
+  if (!usable || result.object < 0) {
+    const TrackStateEstimator::Output out = state_->NoSilhouette();
+    result.state = out.state;
+    result.confidence = result.object >= 0 ? out.confidence : std::nan("");
+    if (result.object < 0 && usable) {
+      // A silhouette without any estimate (e.g. every view unusable): nothing fits it.
+      result.state = TrackState::kUnknownObject;
+    }
+    return;
+  }
+  ConfidenceFeatures features;
+  if (estimate != nullptr) {
+    features.object_probability = result.probability;
+    features.mode_mass = estimate->mode_mass;
+    features.runner_up_mass = estimate->runner_up.mass;
+  }
+  features.score = result.score;
+  const PolarSignature& signature = tracked->silhouette.signature;
+  if (tracked->refinement && options_.refinement.compute_iou && signature.mean_radius_px > 0.0) {
+    features.has_fit = true;
+    features.iou = tracked->refinement->iou;
+    features.outline_rms = tracked->refinement->final_rms_px / signature.mean_radius_px;
+  }
+  if (previous_area_px_ > 0.0 && signature.area_px > 0.0)
+    features.area_change = std::abs(std::log(signature.area_px / previous_area_px_));
+  previous_area_px_ = signature.area_px;
+  const double runner_up_score =
+      estimate != nullptr ? static_cast<double>(estimate->runner_up.score) : -1.0;
+  const TrackStateEstimator::Output out = state_->Measured(&features, runner_up_score);
+  tracked->confidence_features = features;
+  result.confidence = out.confidence;
+  result.state = out.state;
 }
 
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
@@ -237,9 +288,22 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
+  Assess(&tracked, usable);
   if (options_.canonical_poses && result.object >= 0 && result.view_dir_in_object) {
     const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result.object)].symmetry;
     if (symmetry.HasRotations()) ToCanonicalForm(symmetry, &result);
+  }
+  if (options_.canonical_poses && result.runner_up_object >= 0 && result.runner_up_view_dir) {
+    const ObjectSymmetry& symmetry =
+        database_.models[static_cast<size_t>(result.runner_up_object)].symmetry;
+    if (symmetry.HasRotations()) {
+      FrameResult runner_up;
+      runner_up.view_dir_in_object = result.runner_up_view_dir;
+      runner_up.roll_deg = result.runner_up_roll_deg;
+      ToCanonicalForm(symmetry, &runner_up);
+      result.runner_up_view_dir = runner_up.view_dir_in_object;
+      result.runner_up_roll_deg = runner_up.roll_deg;
+    }
   }
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   ++frame_;

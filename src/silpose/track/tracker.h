@@ -32,6 +32,7 @@
 #include "silpose/pose/pose_output.h"
 #include "silpose/segment/segmenter.h"
 #include "silpose/shape/polar_signature.h"
+#include "silpose/track/confidence.h"
 
 namespace silpose {
 
@@ -70,6 +71,8 @@ struct TrackerOptions {
   /// docs/symmetry.md): of the poses that look alike by the object's symmetries, the one whose
   /// camera direction lies in a fixed sector of the object. Off: the pose as matched.
   bool canonical_poses = true;
+  /// Confidence and state of each frame (track/confidence.h, docs/confidence.md).
+  TrackStateOptions state;
 
   /// ParticleFilterOptions{} with max_history_frames = 100.
   static ParticleFilterOptions DefaultFilterOptions();
@@ -96,6 +99,8 @@ struct TrackedFrame {
   std::optional<SilhouettePose> pose;
   /// The particle filter's estimate (not set in brute-force mode).
   std::optional<FilterEstimate> estimate;
+  /// What result.confidence was computed from (frames with a silhouette and an estimate).
+  std::optional<ConfidenceFeatures> confidence_features;
 };
 
 /// Puts `result`'s pose, view direction and roll in canonical form for an object with
@@ -139,8 +144,13 @@ class Tracker {
   std::unique_ptr<Segmenter> segmenter_;
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
+  void Assess(TrackedFrame* tracked, bool usable);
+
+  std::unique_ptr<TrackStateEstimator> state_;
   int frame_ = 0;
   int measured_frames_ = 0;
+  /// Area of the last usable silhouette, pixels (0 before the first).
+  double previous_area_px_ = 0.0;
 };
 
 }  // namespace silpose

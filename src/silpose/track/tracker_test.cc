@@ -176,6 +176,48 @@ TEST(Tracker, FrameWithoutSilhouetteIsAPredictionWithoutPose) {
   EXPECT_EQ(tracker.num_frames(), 3);
 }
 
+TEST(Tracker, ConfidenceAndStateTellATrackedObjectFromOneNotInTheDatabase) {
+  TrackerOptions options;
+  options.filter.seed = 5;
+  Tracker tracker(Database(), Sequence().camera(), options);
+  int tracking = 0, confident = 0;
+  for (int f = 0; f < 40; ++f) {
+    const TrackedFrame tracked = tracker.Process(Sequence().Generate(f).mask);
+    const FrameResult& r = tracked.result;
+    ASSERT_TRUE(tracked.confidence_features.has_value());
+    EXPECT_GE(r.confidence, 0.0);
+    EXPECT_LE(r.confidence, 1.0);
+    EXPECT_GT(r.iou, 0.0);
+    if (f >= 10) {
+      tracking += r.state == TrackState::kTracking;
+      confident += r.confidence >= tracker.options().state.min_confidence;
+    }
+  }
+  // The cow, clean masks, a database of 400 views: trusted once identified.
+  EXPECT_GE(tracking, 25);
+  EXPECT_GE(confident, 25);
+  // An object that is not in the database (the elephant), shown to a fresh tracker.
+  SequenceOptions elephant_options;
+  elephant_options.trajectory.kind = TrajectoryKind::kWalk;
+  elephant_options.trajectory.num_frames = 30;
+  elephant_options.trajectory.walk.seed = 11;
+  const SyntheticSequence elephant({LoadMesh(kModels / "elephant.obj")}, elephant_options);
+  Tracker stranger(Database(), elephant.camera(), options);
+  int unknown = 0, trusted = 0;
+  for (int f = 0; f < elephant.num_frames(); ++f) {
+    const FrameResult r = stranger.Process(elephant.Generate(f).mask).result;
+    unknown += r.state == TrackState::kUnknownObject;
+    trusted += r.state == TrackState::kTracking;
+  }
+  EXPECT_GE(unknown, 20);
+  EXPECT_LE(trusted, 2);
+  // A blank frame: no silhouette, confidence 0 (the filter still has an estimate).
+  const cv::Mat blank = cv::Mat::zeros(Sequence().Generate(1).mask.size(), CV_8UC1);
+  const FrameResult none = tracker.Process(blank).result;
+  EXPECT_EQ(none.state, TrackState::kNoSilhouette);
+  EXPECT_EQ(none.confidence, 0.0);
+}
+
 // The cow's silhouette shrunk by `scale` and centred at `centre` in an empty frame.
 cv::Mat PlacedSilhouette(double scale, cv::Point centre) {
   const cv::Mat full = Sequence().Generate(5).mask;

@@ -1,0 +1,136 @@
+#include "silpose/track/confidence.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+ConfidenceFeatures GoodFit() {
+  ConfidenceFeatures f;
+  f.object_probability = 0.999;
+  f.mode_mass = 0.95;
+  f.runner_up_mass = 0.01;
+  f.score = 0.999;
+  f.has_fit = true;
+  f.iou = 0.99;
+  f.outline_rms = 0.005;
+  return f;
+}
+
+ConfidenceFeatures PoorFit() {
+  ConfidenceFeatures f = GoodFit();
+  f.score = 0.9;
+  f.iou = 0.75;
+  f.outline_rms = 0.1;
+  f.mode_mass = 0.4;
+  return f;
+}
+
+TEST(ConfidenceFeatures, VectorTransformsAndBoundsEveryInput) {
+  ConfidenceFeatures f = GoodFit();
+  f.area_change = 5.0;
+  const auto x = f.Vector();
+  EXPECT_DOUBLE_EQ(x[0], 0.999);
+  EXPECT_NEAR(x[2], 0.01 / 0.95, 1e-12);
+  EXPECT_NEAR(x[3], 3.0, 1e-9);  // -log10(1 - 0.999)
+  EXPECT_EQ(x[4], 1.0);
+  EXPECT_EQ(x[7], 2.0);  // area change capped
+  ConfidenceFeatures none;
+  none.has_fit = false;
+  none.iou = 0.9;
+  none.score = 1.0;  // a perfect score is capped, not infinite
+  none.runner_up_mass = 1.0;
+  none.mode_mass = 0.0;
+  const auto y = none.Vector();
+  EXPECT_EQ(y[4], 0.0);
+  EXPECT_EQ(y[5], 0.0);  // IoU ignored without a fit
+  EXPECT_NEAR(y[3], 4.0, 1e-9);
+  EXPECT_EQ(y[2], 3.0);
+  for (double v : y) EXPECT_TRUE(std::isfinite(v));
+  EXPECT_EQ(ConfidenceFeatures::Names().size(), x.size());
+}
+
+TEST(ConfidenceModel, DefaultModelRanksAGoodFitAboveAPoorOne) {
+  const ConfidenceModel model = ConfidenceModel::Default();
+  ASSERT_TRUE(model.Check());
+  ConfidenceFeatures good = GoodFit(), poor = PoorFit();
+  good.recent_iou = 0.99;
+  good.recent_outline_rms = 0.005;
+  poor.recent_iou = 0.75;
+  poor.recent_outline_rms = 0.1;
+  const double high = model.Evaluate(good);
+  const double low = model.Evaluate(poor);
+  EXPECT_GT(high, 0.9);
+  EXPECT_LT(low, 0.2);
+  ConfidenceModel broken;
+  broken.weights[3] = std::nan("");
+  std::string error;
+  EXPECT_FALSE(broken.Check(&error));
+  EXPECT_NE(error.find("finite"), std::string::npos);
+}
+
+TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
+  TrackStateEstimator estimator;
+  EXPECT_EQ(estimator.NoSilhouette().state, TrackState::kNoSilhouette);
+  EXPECT_EQ(estimator.NoSilhouette().confidence, 0.0);
+  // A poor fit from the start: no database object fits.
+  for (int i = 0; i < 3; ++i) {
+    ConfidenceFeatures f = PoorFit();
+    EXPECT_EQ(estimator.Measured(&f, -1.0).state, TrackState::kUnknownObject);
+    EXPECT_NEAR(f.recent_iou, 0.75, 1e-12);
+  }
+  // Good fits (the mean IoU recovers over fit_frames frames): tracking.
+  TrackStateEstimator tracker;
+  for (int i = 0; i < 5; ++i) {
+    ConfidenceFeatures f = GoodFit();
+    const TrackStateEstimator::Output out = tracker.Measured(&f, -1.0);
+    EXPECT_EQ(out.state, TrackState::kTracking) << i;
+    EXPECT_GE(out.confidence, tracker.options().min_confidence);
+  }
+  // Then a poor frame after established tracking: bad segmentation, not an unknown object.
+  ConfidenceFeatures occluded = PoorFit();
+  occluded.area_change = 0.5;
+  EXPECT_EQ(tracker.Measured(&occluded, -1.0).state, TrackState::kBadSegmentation);
+  // A competing mode as heavy and as good as the reported one: ambiguous.
+  ConfidenceFeatures twin = GoodFit();
+  twin.mode_mass = 0.45;
+  twin.runner_up_mass = 0.44;
+  EXPECT_EQ(tracker.Measured(&twin, twin.score - 0.001).state, TrackState::kAmbiguous);
+  // ... but not when the runner-up's score is clearly worse.
+  ConfidenceFeatures clear = GoodFit();
+  clear.runner_up_mass = 0.9;
+  EXPECT_NE(tracker.Measured(&clear, clear.score - 0.2).state, TrackState::kAmbiguous);
+}
+
+TEST(TrackStateOptions, InvalidValuesAreRefusedWithTheirName) {
+  TrackStateOptions options;
+  EXPECT_TRUE(options.Check());
+  std::string error;
+  options.min_confidence = 1.5;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("minimum confidence"), std::string::npos);
+  options = {};
+  options.fit_frames = 0;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("fit frames"), std::string::npos);
+  EXPECT_THROW(TrackStateEstimator{options}, Error);
+}
+
+TEST(TrackStateNames, RoundTrip) {
+  for (TrackState s :
+       {TrackState::kTracking, TrackState::kAmbiguous, TrackState::kUnknownObject,
+        TrackState::kBadSegmentation, TrackState::kLost, TrackState::kNoSilhouette}) {
+    TrackState parsed = TrackState::kTracking;
+    ASSERT_TRUE(ParseTrackState(TrackStateName(s), &parsed));
+    EXPECT_EQ(parsed, s);
+  }
+  TrackState parsed;
+  EXPECT_FALSE(ParseTrackState("measured", &parsed));
+}
+
+}  // namespace
+}  // namespace silpose
