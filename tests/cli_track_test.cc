@@ -74,11 +74,11 @@ TEST_F(CliTrackTest, ColourVideoWithBackgroundSubtractionGivesPosesAndAllOutputs
   const std::vector<std::string> rows = ReadLines(poses);
   ASSERT_EQ(rows.size(), 61u);
   EXPECT_EQ(rows[0].substr(0, 40), "frame,object,score,probability,view_x,vi");
-  ASSERT_EQ(Split(rows[0]).size(), 29u);
+  ASSERT_EQ(Split(rows[0]).size(), 38u);
   int right = 0, with_pose = 0;
   for (size_t r = 1; r < rows.size(); ++r) {
     const std::vector<std::string> fields = Split(rows[r]);
-    ASSERT_EQ(fields.size(), 29u) << rows[r];
+    ASSERT_EQ(fields.size(), 38u) << rows[r];
     const int frame = std::stoi(fields[0]);
     EXPECT_EQ(frame, static_cast<int>(r) - 1);
     const std::string truth = frame < 40 ? "hand" : "bunny";

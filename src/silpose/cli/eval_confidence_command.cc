@@ -132,7 +132,9 @@ void RunEvalConfidence(const EvalConfidenceArguments& arguments) {
   options.first_seed = arguments.seed;
   options.fit = !arguments.no_fit;
   options.state.min_confidence = arguments.min_confidence;
-  options.fit_models = options.fit ? arguments.fit : std::vector<std::string>{};
+  // The tuning models: fitted on, or (--no-fit) those the built-in model was fitted on; never
+  // evaluated.
+  options.fit_models = arguments.fit;
   options.eval_models = arguments.evaluate;
   int views = arguments.views;
   std::vector<std::string> unknown_names = arguments.unknown;

@@ -255,6 +255,14 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
       "mean ms per stage (frames where it ran): segment %.3f, describe %.3f, match %.3f, "
       "pose %.3f, refine %.3f\n",
       stages.segment_ms, stages.describe_ms, stages.match_ms, stages.pose_ms, stages.refine_ms);
+  const std::array<int, 6> states = report.StateCounts();
+  std::printf("states (docs/confidence.md):");
+  for (size_t s = 0; s < states.size(); ++s) {
+    if (states[s] > 0)
+      std::printf(" %s %.1f %%", TrackStateName(static_cast<TrackState>(s)),
+                  100.0 * states[s] / frames);
+  }
+  std::printf("\n");
   if (report.has_truth()) {
     const int skip = std::min(10, frames - 1);
     const TrackAccuracy accuracy = report.Accuracy(skip);
@@ -604,6 +612,11 @@ void AddTrackCommand(CLI::App& app) {
       ->check(SeedNumber());
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
+  command
+      ->add_option("--min-confidence", arguments->tracker.state.min_confidence,
+                   "Confidence from which a frame's state is 'tracking' (docs/confidence.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   command->add_flag("!--no-canonical-poses", arguments->tracker.canonical_poses,
                     "Report the poses of symmetric objects as matched, not in the canonical form "
                     "of docs/symmetry.md");

@@ -48,8 +48,8 @@ enum class ConfidenceCondition : uint8_t { kClean, kDegraded, kOccluded };
 const char* ConfidenceConditionName(ConfidenceCondition condition);
 
 struct ConfidenceExperimentOptions {
-  /// Database models whose sequences fit the confidence model (the tuning models; non-empty when
-  /// fit is set).
+  /// The tuning models: their sequences fit the confidence model (non-empty when fit is set);
+  /// never evaluated, also when fit is not set (they are what the given model was fitted on).
   std::vector<std::string> fit_models;
   /// Database models evaluated (held out); empty: every database model not in fit_models.
   std::vector<std::string> eval_models;

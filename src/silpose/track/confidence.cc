@@ -20,13 +20,16 @@ std::array<double, ConfidenceFeatures::kSize> ConfidenceFeatures::Vector() const
           has_fit && std::isfinite(outline_rms) ? std::min(outline_rms, 1.0) : 0.0,
           std::isfinite(area_change) ? std::min(area_change, 2.0) : 2.0,
           std::isfinite(recent_iou) ? recent_iou : 0.0,
-          std::isfinite(recent_outline_rms) ? std::min(recent_outline_rms, 1.0) : 1.0};
+          std::isfinite(recent_outline_rms) ? std::min(recent_outline_rms, 1.0) : 1.0,
+          std::isfinite(twin_score_gap) ? std::clamp(twin_score_gap, 0.0, 0.05) / 0.05 : 1.0};
 }
 
 const std::array<const char*, ConfidenceFeatures::kSize>& ConfidenceFeatures::Names() {
   static const std::array<const char*, kSize> names = {
-      "object_probability", "mode_mass",   "runner_up_ratio", "score_sharpness",   "has_fit", "iou",
-      "outline_rms",        "area_change", "recent_iou",      "recent_outline_rms"};
+      "object_probability", "mode_mass",   "runner_up_ratio",
+      "score_sharpness",    "has_fit",     "iou",
+      "outline_rms",        "area_change", "recent_iou",
+      "recent_outline_rms", "twin_gap"};
   return names;
 }
 
@@ -34,9 +37,9 @@ ConfidenceModel ConfidenceModel::Default() {
   // Fitted by `silpose eval confidence --sequences 3 --frames 100` on the sample models (fit on
   // bunny and cow and their look-alikes; docs/confidence.md), printed to model.txt.
   ConfidenceModel model;
-  model.bias = -8.33517981;
-  model.weights = {0.232117612, -0.337139907, -1.36831784, 0.472765648, 0.140592472,
-                   7.02037427,  -36.2935341,  0.101394741, 3.78871899,  0.284378463};
+  model.bias = -8.49285147;
+  model.weights = {0.29616542,  -0.407831078, -1.31699209, 0.532038254, 0.153695415, 6.85877495,
+                   -35.7909732, 0.0827631998, 3.71025914,  0.234676198, 0.290959592};
   return model;
 }
 
@@ -109,9 +112,11 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   for (bool t : recent_tracking_) tracked_frames += t;
   const bool recently_tracked = tracked_frames >= kEstablished;
   const bool ambiguous =
-      features->runner_up_mass > 0.0 &&
-      features->runner_up_mass >= options_.ambiguous_mass_ratio * features->mode_mass &&
-      runner_up_score >= features->score - options_.ambiguous_score_gap;
+      (features->runner_up_mass > 0.0 &&
+       features->runner_up_mass >= options_.ambiguous_mass_ratio * features->mode_mass &&
+       runner_up_score >= features->score - options_.ambiguous_score_gap) ||
+      (std::isfinite(features->twin_score_gap) &&
+       features->twin_score_gap <= options_.ambiguous_score_gap);
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
   } else if (ambiguous && mean_fit >= options_.unknown_fit_iou) {

@@ -23,8 +23,10 @@
 //  - confidence >= min_confidence and no competing mode (one with at least ambiguous_mass_ratio
 //    of the reported mode's weight and a score within ambiguous_score_gap of the reported one):
 //    kTracking;
-//  - a competing mode, and the model fits (the mean IoU of the last fit_frames frames with a
-//    silhouette, 0 for a frame without a fit, at least unknown_fit_iou): kAmbiguous;
+//  - a competing mode, or a mirror twin whose score is within ambiguous_score_gap of the reported
+//    one (ConfidenceFeatures::twin_score_gap), and the model fits (the mean IoU of the last
+//    fit_frames frames with a silhouette, 0 for a frame without a fit, at least unknown_fit_iou):
+//    kAmbiguous;
 //  - the object was tracked (kTracking) in at least 3 of the last fit_frames frames:
 //    kBadSegmentation (an occluder, a hand, a failed mask: the outline no longer fits);
 //  - that mean IoU below unknown_fit_iou: kUnknownObject (no database object has fitted for a
@@ -35,6 +37,7 @@
 
 #include <array>
 #include <deque>
+#include <limits>
 #include <string>
 
 #include "silpose/pose/pose_output.h"
@@ -63,11 +66,16 @@ struct ConfidenceFeatures {
   /// database; a single bad frame is not.
   double recent_iou = 0.0;
   double recent_outline_rms = 1.0;
+  /// For an object with a mirror plane: score minus the best score of the reported view's mirror
+  /// twins (the views whose outline is the same up to perspective, farther than the mode radius);
+  /// NaN when there is no such twin. Near 0: the outline cannot tell the two poses apart.
+  double twin_score_gap = std::numeric_limits<double>::quiet_NaN();
 
-  static constexpr int kSize = 10;
+  static constexpr int kSize = 11;
   /// The regression's inputs: object_probability, mode_mass, min(runner_up_mass / max(mode_mass,
   /// 0.01), 3), -log10(max(1 - score, 1e-4)), has_fit, iou (0 without fit), min(outline_rms, 1)
-  /// (0 without fit), min(area_change, 2), recent_iou, min(recent_outline_rms, 1).
+  /// (0 without fit), min(area_change, 2), recent_iou, min(recent_outline_rms, 1),
+  /// clamp(twin_score_gap, 0, 0.05) / 0.05 (1 without a twin).
   std::array<double, kSize> Vector() const;
   /// Their names, in that order (for CSV headers).
   static const std::array<const char*, kSize>& Names();

@@ -100,6 +100,13 @@ TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
   twin.mode_mass = 0.45;
   twin.runner_up_mass = 0.44;
   EXPECT_EQ(tracker.Measured(&twin, twin.score - 0.001).state, TrackState::kAmbiguous);
+  // A mirror twin that scores as well as the reported view: ambiguous too; a clearly worse one is
+  // not.
+  ConfidenceFeatures mirrored = GoodFit();
+  mirrored.twin_score_gap = 0.002;
+  EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kAmbiguous);
+  mirrored.twin_score_gap = 0.2;
+  EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kTracking);
   // ... but not when the runner-up's score is clearly worse.
   ConfidenceFeatures clear = GoodFit();
   clear.runner_up_mass = 0.9;

@@ -105,6 +105,12 @@ TrackAccuracy TrackReport::Accuracy(int skip_frames) const {
   return accuracy;
 }
 
+std::array<int, 6> TrackReport::StateCounts() const {
+  std::array<int, 6> counts{};
+  for (const Entry& entry : frames_) ++counts[static_cast<size_t>(entry.result.state)];
+  return counts;
+}
+
 TrackReport::StageTimes TrackReport::MeanStageTimes() const {
   const auto mean = [this](double FrameResult::*field) {
     double sum = 0.0;

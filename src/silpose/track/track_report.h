@@ -4,6 +4,7 @@
 // Fig. 6), as plot/figure.h figures; and, with ground truth, the accuracy figures of the run.
 
 #include <Eigen/Core>
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -88,6 +89,8 @@ class TrackReport {
     double refine_ms = 0.0;
   };
   StageTimes MeanStageTimes() const;
+  /// Frames per state (FrameResult::state), indexed by the TrackState value.
+  std::array<int, 6> StateCounts() const;
 
   /// Where the true object changes (frames with a truth whose object differs from the previous
   /// truth's): the frame, and how many frames later the estimate names the new object and keeps

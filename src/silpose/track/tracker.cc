@@ -76,11 +76,12 @@ Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
   spectra_ = std::make_unique<ViewSpectra>(database_);
   segmenter_ = CreateSegmenter(options_.segmentation);
   state_ = std::make_unique<TrackStateEstimator>(options_.state);
-  if (options_.brute_force) {
-    matcher_ = std::make_unique<ViewMatcher>(*spectra_);
-  } else {
+  // The matcher searches in brute-force mode and scores mirror twins (Assess) in both modes.
+  matcher_ = std::make_unique<ViewMatcher>(*spectra_);
+  if (!options_.brute_force) {
     filter_ = std::make_unique<ParticleFilter>(database_.sphere, *spectra_, options_.filter);
   }
+  for (const ModelViews& model : database_.models) equivalence_.emplace_back(model.symmetry);
 }
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
@@ -124,7 +125,35 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
   if (filter_) filter_->ObserveRotation(on_axis);
 }
 
-void Tracker::Assess(TrackedFrame* tracked, bool usable) {
+bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFrame* tracked,
+                              MirrorTwin* twin) {
+  const FrameResult& result = tracked->result;
+  const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
+  if (model.symmetry.mirrors.empty() || !result.view_dir_in_object || radii.empty()) return false;
+  const Eigen::Vector3d d = result.view_dir_in_object->normalized();
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(result.object)];
+  bool found = false;
+  for (const MirrorSymmetry& mirror : model.symmetry.mirrors) {
+    const Eigen::Vector3d n = mirror.normal.normalized();
+    // Seen from d, a mirror-symmetric object's outline is that seen from -M d (turned), M the
+    // plane's reflection of directions (geometry/symmetry.h).
+    const Eigen::Vector3d other = (-d + 2.0 * d.dot(n) * n).normalized();
+    if (same.AngleDeg(other, d) <= options_.filter.mode_radius_deg) continue;
+    const int view = database_.sphere.NearestView(other);
+    if (view < 0 || !spectra_->Usable(result.object, view, shell)) continue;
+    if (!found) matcher_->correlator().Transform(radii, &twin_query_);
+    const CorrelationPeak peak = matcher_->Score(twin_query_, result.object, view, shell);
+    if (!found || peak.score > twin->score) {
+      twin->view = view;
+      twin->score = peak.score;
+      twin->roll_deg = peak.RollDeg(static_cast<int>(radii.size()));
+    }
+    found = true;
+  }
+  return found;
+}
+
+void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int shell) {
   FrameResult& result = tracked->result;
   if (tracked->refinement && options_.refinement.compute_iou) result.iou = tracked->refinement->iou;
   const FilterEstimate* estimate = tracked->estimate ? &*tracked->estimate : nullptr;
@@ -159,6 +188,9 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable) {
     features.iou = tracked->refinement->iou;
     features.outline_rms = tracked->refinement->final_rms_px / signature.mean_radius_px;
   }
+  MirrorTwin twin;
+  const bool has_twin = usable && ScoreMirrorTwin(radii, shell, tracked, &twin);
+  if (has_twin) features.twin_score_gap = result.score - static_cast<double>(twin.score);
   if (previous_area_px_ > 0.0 && signature.area_px > 0.0)
     features.area_change = std::abs(std::log(signature.area_px / previous_area_px_));
   previous_area_px_ = signature.area_px;
@@ -168,6 +200,17 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable) {
   tracked->confidence_features = features;
   result.confidence = out.confidence;
   result.state = out.state;
+  // A mirror twin that explains the silhouette as well as the reported view is the runner-up
+  // (unless the filter's own runner-up is already as good).
+  if (has_twin && (result.runner_up_object < 0 ||
+                   static_cast<double>(twin.score) >
+                       (estimate != nullptr ? estimate->runner_up.score : -1.0f))) {
+    result.runner_up_object = result.object;
+    result.runner_up_name = result.object_name;
+    result.runner_up_mass = std::nan("");
+    result.runner_up_view_dir = database_.sphere.directions[static_cast<size_t>(twin.view)];
+    result.runner_up_roll_deg = twin.roll_deg;
+  }
 }
 
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
@@ -246,7 +289,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     result.score = static_cast<double>(estimate.score);
     if (estimate.object >= 0)
       result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
-  } else if (!filter_ && usable) {
+  } else if (!filter_ && usable) {  // brute force
     const std::vector<MatchCandidate> top =
         matcher_->Match(radii, {.top_k = 1, .apparent_radius = apparent_radius});
     result.time_match_ms = lap();
@@ -288,7 +331,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
-  Assess(&tracked, usable);
+  Assess(&tracked, usable, radii, shell);
   if (options_.canonical_poses && result.object >= 0 && result.view_dir_in_object) {
     const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result.object)].symmetry;
     if (symmetry.HasRotations()) ToCanonicalForm(symmetry, &result);

@@ -20,7 +20,9 @@
 
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "silpose/database/view_database.h"
 #include "silpose/filter/particle_filter.h"
@@ -144,9 +146,21 @@ class Tracker {
   std::unique_ptr<Segmenter> segmenter_;
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
-  void Assess(TrackedFrame* tracked, bool usable);
+  struct MirrorTwin {
+    int view = -1;
+    float score = 0.0f;
+    double roll_deg = 0.0;
+  };
+  /// The best-scoring mirror twin of the reported view farther than the filter's mode radius
+  /// (modulo rotational symmetry); false if the object has no mirror plane or no such twin.
+  bool ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFrame* tracked,
+                       MirrorTwin* twin);
+  void Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int shell);
 
   std::unique_ptr<TrackStateEstimator> state_;
+  /// Per model: views alike by its rotational symmetries.
+  std::vector<ViewEquivalence> equivalence_;
+  SignatureSpectrum twin_query_;
   int frame_ = 0;
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).
