@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <Eigen/Dense>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -84,6 +85,31 @@ TEST_F(CliTest, RenderThenMatchFindsTheRenderedViewAndRoll) {
   EXPECT_NEAR(best["roll_deg"].get<double>(), 33.0, 0.72);
   EXPECT_GT(best["score"].get<double>(), 0.98);
   EXPECT_EQ(result["silhouette"]["status"], "ok");
+  // The 6-DOF pose of the best candidate (default camera): a rotation, in front of the camera.
+  ASSERT_TRUE(result["pose"].is_object()) << json.out;
+  EXPECT_EQ(result["pose"]["object"], "hand");
+  Eigen::Matrix3d rotation;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) rotation(r, c) = result["pose"]["R"][r][c].get<double>();
+  EXPECT_TRUE((rotation.transpose() * rotation).isIdentity(1e-6));
+  EXPECT_NEAR(rotation.determinant(), 1.0, 1e-6);
+  EXPECT_GT(result["pose"]["t"][2].get<double>(), 0.0);
+  EXPECT_EQ(result["camera"], "default");
+  EXPECT_GE(result["confidence"].get<double>(), 0.0);
+  EXPECT_LE(result["confidence"].get<double>(), 1.0);
+  EXPECT_TRUE(result["state"].is_string());
+  EXPECT_NE(table.out.find("6-DOF pose of hand"), std::string::npos) << table.out;
+  // A camera of another size than the mask is refused, naming the file.
+  const std::string camera = Path("match_camera.yml");
+  std::ofstream(camera) << "%YAML:1.0\n---\nimage_width: 320\nimage_height: 200\n"
+                           "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                           "   data: [ 250., 0., 160., 0., 250., 100., 0., 0., 1. ]\n";
+  const CommandResult wrong_camera =
+      Silpose("match -d " + database_ + " " + mask + " --camera " + camera);
+  EXPECT_NE(wrong_camera.exit_code, 0);
+  EXPECT_NE(wrong_camera.err.find("match_camera.yml: the camera is 320x200 pixels"),
+            std::string::npos)
+      << wrong_camera.err;
 }
 
 TEST_F(CliTest, RenderWithACameraFileUsesItsImageSize) {

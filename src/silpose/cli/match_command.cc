@@ -1,12 +1,15 @@
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "silpose/cli/commands.h"
+#include "silpose/io/camera_file.h"
 #include "silpose/io/mask_file.h"
 #include "silpose/match/view_matcher.h"
+#include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
 
 namespace silpose::cli {
@@ -15,6 +18,8 @@ namespace {
 struct MatchArguments {
   std::string database;
   std::string mask;
+  std::string camera;
+  bool no_refine = false;
   int top_k = 5;
   bool json = false;
   bool exhaustive = false;
@@ -35,16 +40,41 @@ void RunMatch(const MatchArguments& arguments) {
             : std::string(": no non-zero pixel"),
         ")");
   }
-  const ViewSpectra spectra(database);
-  ViewMatcher matcher(spectra);
+  // The camera of the mask: --camera, else the default one (the pose's distance depends on it).
+  PinholeCamera camera = DefaultCamera(mask.cols, mask.rows);
+  if (!arguments.camera.empty()) {
+    camera = ReadCameraFile(arguments.camera);
+    if (camera.width_px != mask.cols || camera.height_px != mask.rows) {
+      ThrowError(arguments.camera, ": the camera is ", camera.width_px, "x", camera.height_px,
+                 " pixels but ", arguments.mask, " is ", mask.cols, "x", mask.rows,
+                 ": wrong calibration file?");
+    }
+  }
+  // What `track --brute-force` does with one frame: the silhouette seen straight on, matched in
+  // the distance shell its size chooses, the 6-DOF pose and its contour refinement.
+  TrackerOptions tracker_options;
+  tracker_options.brute_force = true;
+  tracker_options.refine = !arguments.no_refine;
+  Tracker tracker(database, camera, tracker_options);
+  const TrackedFrame tracked = tracker.Process(mask);
+  std::span<const float> radii = silhouette.signature.radii;
+  double apparent_radius =
+      silhouette.signature.mean_radius_px / std::sqrt(camera.focal_x_px * camera.focal_y_px);
+  if (tracked.on_axis) {
+    radii = tracked.on_axis->signature.radii;
+    apparent_radius = tracked.on_axis->apparent_radius;
+  }
+  ViewMatcher matcher(tracker.spectra());  // the spectra the tracker already made
   MatchOptions options;
   options.top_k = arguments.top_k;
   options.exhaustive = arguments.exhaustive;
+  options.apparent_radius = apparent_radius;
   const auto match_start = std::chrono::steady_clock::now();
-  const std::vector<MatchCandidate> candidates = matcher.Match(silhouette.signature.radii, options);
+  const std::vector<MatchCandidate> candidates = matcher.Match(radii, options);
   const auto end = std::chrono::steady_clock::now();
   const double match_ms = std::chrono::duration<double, std::milli>(end - match_start).count();
   const double total_ms = std::chrono::duration<double, std::milli>(end - start).count();
+  const FrameResult& best = tracked.result;
 
   const PolarSignature& signature = silhouette.signature;
   if (arguments.json) {
@@ -70,6 +100,24 @@ void RunMatch(const MatchArguments& arguments) {
                       {"score", c.score}});
     }
     output["candidates"] = list;
+    output["camera"] = arguments.camera.empty() ? std::string("default") : arguments.camera;
+    if (best.camera_from_object) {
+      const Eigen::Matrix3d& r = best.camera_from_object->rotation;
+      const Eigen::Vector3d& t = best.camera_from_object->translation;
+      nlohmann::json rows = nlohmann::json::array();
+      for (int i = 0; i < 3; ++i) rows.push_back({r(i, 0), r(i, 1), r(i, 2)});
+      output["pose"] = {{"object", best.object_name},
+                        {"R", rows},
+                        {"t", {t.x(), t.y(), t.z()}},
+                        {"refined", tracked.refinement.has_value()}};
+    } else {
+      output["pose"] = nullptr;
+    }
+    output["status"] = best.status;
+    output["confidence"] =
+        std::isfinite(best.confidence) ? nlohmann::json(best.confidence) : nlohmann::json(nullptr);
+    output["state"] = TrackStateName(best.state);
+    output["iou"] = std::isfinite(best.iou) ? nlohmann::json(best.iou) : nlohmann::json(nullptr);
     std::cout << output.dump(2) << "\n";
     return;
   }
@@ -85,6 +133,29 @@ void RunMatch(const MatchArguments& arguments) {
                 database.models[static_cast<size_t>(c.model)].name.c_str(), c.view, d.x(), d.y(),
                 d.z(), c.roll_deg, static_cast<double>(c.score));
   }
+  if (best.camera_from_object) {
+    const Eigen::Matrix3d& r = best.camera_from_object->rotation;
+    const Eigen::Vector3d& t = best.camera_from_object->translation;
+    std::printf(
+        "6-DOF pose of %s (x_cam = R x_obj + t, %s camera%s):\n  R = [%9.6f %9.6f %9.6f; %9.6f "
+        "%9.6f %9.6f; %9.6f %9.6f %9.6f]\n  t = [%.6g %.6g %.6g] (model units)\n",
+        best.object_name.c_str(), arguments.camera.empty() ? "the default" : "the given",
+        tracked.refinement ? ", refined" : "", r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2),
+        r(2, 0), r(2, 1), r(2, 2), t.x(), t.y(), t.z());
+  } else {
+    std::printf("no 6-DOF pose (%s)\n", best.status.c_str());
+  }
+  if (std::isfinite(best.confidence)) {
+    std::printf("confidence %.3f, state %s", best.confidence, TrackStateName(best.state));
+    if (std::isfinite(best.iou)) std::printf(", IoU of the model at the pose %.3f", best.iou);
+    std::printf(" (docs/confidence.md; one frame: no history)\n");
+  }
+  if (arguments.camera.empty()) {
+    std::printf(
+        "camera: default (focal length %.1f px, principal point at the image centre); give "
+        "--camera for the true distance\n",
+        camera.focal_x_px);
+  }
   std::printf("matched against %zu models x %d views in %.1f ms (%d correlated), %.0f ms in all\n",
               database.models.size(), database.num_views(), match_ms,
               matcher.last_stats().views_correlated, total_ms);
@@ -97,13 +168,18 @@ void AddMatchCommand(CLI::App& app) {
   CLI::App* command =
       app.add_subcommand("match",
                          "Match one mask image against every view of a database and print the best "
-                         "(object, view, roll, score) candidates.");
+                         "(object, view, roll, score) candidates and the 6-DOF pose of the best.");
   command->add_option("-d,--database", arguments->database, "Database file from build-db")
       ->required();
   command->add_option("mask", arguments->mask, "Mask image (8-bit, non-zero = object)")->required();
   command->add_option("--top", arguments->top_k, "Number of candidates to print")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  command->add_option("--camera", arguments->camera,
+                      "Camera file of the mask (YAML/XML/JSON, docs/conventions.md) for the 6-DOF "
+                      "pose (default: principal point at the centre, focal length 0.82 x width)");
+  command->add_flag("--no-refine", arguments->no_refine,
+                    "Report the best view's pose without the contour refinement");
   command->add_flag("--json", arguments->json, "Print JSON instead of a table");
   command->add_flag("--exhaustive", arguments->exhaustive,
                     "Correlate every view (the default prunes exactly, with the same result)");

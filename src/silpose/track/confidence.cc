@@ -69,6 +69,8 @@ bool TrackStateOptions::Check(std::string* error) const {
     message << "ambiguous mass ratio must be > 0, got " << ambiguous_mass_ratio;
   } else if (!(ambiguous_score_gap >= 0.0) || !std::isfinite(ambiguous_score_gap)) {
     message << "ambiguous score gap must be >= 0, got " << ambiguous_score_gap;
+  } else if (!(twin_score_gap >= 0.0) || !std::isfinite(twin_score_gap)) {
+    message << "twin score gap must be >= 0, got " << twin_score_gap;
   } else if (!(unknown_fit_iou >= 0.0 && unknown_fit_iou <= 1.0)) {
     message << "unknown-object IoU must be in [0, 1], got " << unknown_fit_iou;
   } else if (fit_frames < 1 || fit_frames > 100000) {
@@ -116,7 +118,7 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
        features->runner_up_mass >= options_.ambiguous_mass_ratio * features->mode_mass &&
        runner_up_score >= features->score - options_.ambiguous_score_gap) ||
       (std::isfinite(features->twin_score_gap) &&
-       features->twin_score_gap <= options_.ambiguous_score_gap);
+       features->twin_score_gap <= options_.twin_score_gap);
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
   } else if (ambiguous && mean_fit >= options_.unknown_fit_iou) {

@@ -135,6 +135,9 @@ class Tracker {
   const ViewDatabase& database() const { return database_; }
   const PinholeCamera& camera() const { return camera_; }
   const TrackerOptions& options() const { return options_; }
+  /// The views' spectra the tracker matches with (made on first use, kept; shareable with a
+  /// ViewMatcher of your own).
+  const ViewSpectra& spectra() const { return *spectra_; }
 
  private:
   void Refine(const TriangleMesh& mesh, TrackedFrame* tracked);
