@@ -79,6 +79,7 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
   // Fit: 2 models x (3 conditions + 2 look-alike ones); held out: 2 x 3 + hand x 2; 40 frames.
   EXPECT_EQ(frames.size(), 1u + (2u * 5u + 2u * 3u + 2u) * 40u);
   std::set<std::string> models;
+  int unknown = 0, trusted_unknown = 0;
   for (size_t i = 1; i < frames.size(); ++i) {
     const std::vector<std::string> cells = Cells(frames[i]);
     ASSERT_EQ(cells.size(), 21u) << frames[i];
@@ -86,12 +87,19 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
     const double confidence = std::stod(cells[8]);
     EXPECT_GE(confidence, 0.0);
     EXPECT_LE(confidence, 1.0);
-    if (cells[1] == "1") EXPECT_EQ(cells[7], "0") << frames[i];  // unknown: never correct
+    if (cells[1] == "1" && cells[2] == "0") {  // held out and not in the database: the hand
+      ++unknown;
+      trusted_unknown += cells[9] == "tracking";
+    }
   }
+  // The object that is not in the database is rarely trusted.
+  EXPECT_EQ(unknown, 80);
+  EXPECT_LE(trusted_unknown, 8);
   EXPECT_EQ(models, (std::set<std::string>{"anchor", "bunny", "bunny-lookalike", "cow",
                                            "cow-lookalike", "elephant", "hand"}));
   EXPECT_EQ(ReadLines(out_ + "/reliability.csv").size(), 11u);
   EXPECT_EQ(ReadLines(out_ + "/model.txt").size(), 12u);  // bias and 11 weights
+  EXPECT_NE(quick_->out.find("lowest threshold with at most 1 %"), std::string::npos);
   EXPECT_GT(std::filesystem::file_size(out_ + "/confidence.png"), 1000u);
 }
 

@@ -883,7 +883,8 @@ void BindTrack(py::module_& m) {
       .def_property_readonly(
           "confidence", [](const TrackResult& r) { return OptionalFloat(r.result.confidence); },
           "Probability, in [0, 1], that the object is right and the rotation within 10 degrees "
-          "(0 without a silhouette, None without any estimate); see docs/confidence.md.")
+          "(0 for a predicted frame without a silhouette, None without any estimate); see "
+          "docs/confidence.md.")
       .def_property_readonly(
           "state", [](const TrackResult& r) { return std::string(TrackStateName(r.result.state)); },
           "What the result can be trusted for: 'tracking', 'ambiguous', 'unknown-object', "
@@ -907,8 +908,8 @@ void BindTrack(py::module_& m) {
             d["roll_deg"] = OptionalFloat(r.result.runner_up_roll_deg);
             return d;
           },
-          "The particle filter's strongest other hypothesis as a dict (object, object_index, "
-          "mass, view_dir, roll_deg), or None.")
+          "The strongest other hypothesis (the particle filter's, or a mirror twin of the view "
+          "with mass None) as a dict (object, object_index, mass, view_dir, roll_deg), or None.")
       .def_property_readonly(
           "segmentation", [](const TrackResult& r) { return r.segmentation; },
           "Segmentation status: 'ok', 'learning', 'empty' or 'too-large'.")

@@ -246,6 +246,12 @@ void RunEvalConfidence(const EvalConfidenceArguments& arguments) {
       "\n\nframes with a silhouette; 'correct': right object and rotation <= 10 deg "
       "modulo symmetry; threshold %.2f\n",
       options.state.min_confidence);
+  if (options.fit) {
+    std::printf(
+        "lowest threshold with at most 1 %% of the fit set's frames above it wrong: %.3f (the "
+        "fit set's states below were tracked with the built-in model)\n",
+        result.fit_threshold);
+  }
   std::printf("%-22s %6s %7s %7s %8s %9s %9s %7s %9s\n", "set", "frames", "correct", "AUC%",
               "tracking", "wrong%", "corr.trk%", "unknown", "unk.rep%");
   PrintMetrics("fit (tuning)", result.fit_set);

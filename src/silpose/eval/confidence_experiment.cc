@@ -89,7 +89,9 @@ ConfidenceRun RunTask(const ViewDatabase& database, const Task& task,
                                                  frame.truth.camera_from_object.rotation,
                                                  symmetries) <= options.correct_rotation_deg;
     }
-    if (tracked.confidence_features) f.features = tracked.confidence_features->Vector();
+    f.has_features = tracked.confidence_features.has_value();
+    f.features = tracked.confidence_features ? tracked.confidence_features->Vector()
+                                             : ConfidenceFeatures().Vector();
     run.frames.push_back(f);
   }
   return run;
@@ -114,8 +116,8 @@ bool ConfidenceExperimentOptions::Check(std::string* error) const {
   std::string problem;
   if (fit && fit_models.empty()) {
     message << "fitting needs at least one fit model";
-  } else if (sequences < 1 || sequences > 1000) {
-    message << "sequences must be in [1, 1000], got " << sequences;
+  } else if (sequences < 1 || sequences > 10) {
+    message << "sequences must be in [1, 10], got " << sequences;
   } else if (frames < 2 || frames > 100000) {
     message << "frames must be in [2, 100000], got " << frames;
   } else if (!(ridge >= 0.0) || !std::isfinite(ridge)) {
@@ -371,7 +373,7 @@ ConfidenceExperimentResult RunConfidenceExperiment(const ViewDatabase& database,
     std::vector<bool> labels;
     for (const ConfidenceRun& run : fit_runs) {
       for (const ConfidenceFrame& f : run.frames) {
-        if (!f.silhouette) continue;
+        if (!f.silhouette || !f.has_features) continue;
         rows.push_back(f.features);
         labels.push_back(f.correct);
       }
@@ -398,14 +400,30 @@ ConfidenceExperimentResult RunConfidenceExperiment(const ViewDatabase& database,
   }
   std::vector<ConfidenceRun> eval_runs = RunTasks(database, tasks, options, state, on_progress);
 
-  // Fit set: confidence with the fitted model.
+  // Fit set: confidence with the fitted model, and the lowest threshold with at most 1 % of the
+  // frames above it wrong.
+  std::vector<std::pair<double, bool>> fit_frames;
   for (ConfidenceRun& run : fit_runs) {
     for (ConfidenceFrame& f : run.frames) {
-      if (!f.silhouette) continue;
+      if (!f.silhouette || !f.has_features) continue;
       double z = result.model.bias;
       for (int j = 0; j < kNumFeatures; ++j)
         z += result.model.weights[static_cast<size_t>(j)] * f.features[static_cast<size_t>(j)];
       f.confidence = 1.0 / (1.0 + std::exp(-z));
+      fit_frames.emplace_back(f.confidence, f.correct);
+    }
+  }
+  result.fit_threshold = kNaN;
+  if (!fit_frames.empty()) {
+    std::sort(fit_frames.begin(), fit_frames.end(),
+              [](const auto& a, const auto& b) { return a.first > b.first; });
+    int above = 0, wrong = 0;
+    for (size_t i = 0; i < fit_frames.size(); ++i) {
+      ++above;
+      wrong += !fit_frames[i].second;
+      const bool last_of_tie =
+          i + 1 == fit_frames.size() || fit_frames[i + 1].first < fit_frames[i].first;
+      if (last_of_tie && wrong <= 0.01 * above) result.fit_threshold = fit_frames[i].first;
     }
   }
   result.runs = std::move(fit_runs);

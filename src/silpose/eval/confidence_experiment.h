@@ -53,7 +53,7 @@ struct ConfidenceExperimentOptions {
   std::vector<std::string> fit_models;
   /// Database models evaluated (held out); empty: every database model not in fit_models.
   std::vector<std::string> eval_models;
-  /// Sequences per model and condition (>= 1) and their frames (>= 2).
+  /// Sequences per model and condition (1..10) and their frames (>= 2).
   int sequences = 2;
   int frames = 100;
   HandheldOptions handheld;
@@ -80,6 +80,9 @@ struct ConfidenceFrame {
   int frame = 0;
   /// The frame had a usable silhouette.
   bool silhouette = false;
+  /// The tracker computed confidence features (a silhouette and an estimate); `features` are
+  /// ConfidenceFeatures{}.Vector() otherwise, and the frame is left out of the fit.
+  bool has_features = false;
   bool correct = false;
   double confidence = 0.0;
   TrackState state = TrackState::kNoSilhouette;
@@ -139,9 +142,13 @@ struct ConfidenceExperimentResult {
   ConfidenceExperimentOptions options;
   /// The model the evaluation used (fitted, or the given one).
   ConfidenceModel model;
+  /// With a fit: the lowest threshold at which at most 1 % of the fit set's frames at or above it
+  /// are wrong, with the fitted model's confidences (NaN without a fit).
+  double fit_threshold = 0.0;
   std::vector<std::string> fit_models, eval_models, unknown_models;
   std::vector<ConfidenceRun> runs;
-  /// Fit set (confidence recomputed with `model`, states as tracked), evaluation set (all held-out
+  /// Fit set (confidence recomputed with `model`; its states are those tracked with
+  /// options.state.model, before the fit), evaluation set (all held-out
   /// runs), and the evaluation set per condition (clean, degraded, occluded; unknown objects
   /// included in their condition).
   ConfidenceMetrics fit_set, eval_set;

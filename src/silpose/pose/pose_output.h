@@ -41,8 +41,9 @@ enum class TrackState : uint8_t {
   /// The silhouette has fitted no database object for several frames: an object not in the
   /// database is in view.
   kUnknownObject,
-  /// The outline explains only part of the silhouette, or the silhouette changed abruptly, after
-  /// the object was tracked: an occluder, a hand, a segmentation failure.
+  /// Low confidence right after the object was tracked (the outline explains only part of the
+  /// silhouette), or the silhouette's area changed abruptly: an occluder, a hand, a segmentation
+  /// failure.
   kBadSegmentation,
   /// Low confidence for none of the reasons above (the filter has not found or has lost the
   /// object).
@@ -98,16 +99,17 @@ struct FrameResult {
   /// 6-DOF pose (object_to_camera), if estimated.
   std::optional<Rigid3> camera_from_object;
   /// The probability, in [0, 1], that the object is right and the rotation within 10 degrees
-  /// (modulo the object's symmetry) (track/confidence.h); 0 for a frame without a silhouette,
-  /// NaN without any estimate.
+  /// (modulo the object's symmetry) (track/confidence.h); 0 for a frame without a silhouette
+  /// that has an estimate (the filter's prediction), NaN without any estimate.
   double confidence = std::numeric_limits<double>::quiet_NaN();
   /// What the result can be trusted for.
   TrackState state = TrackState::kNoSilhouette;
   /// Intersection over union of the model's silhouette at the refined pose with the frame's mask
   /// (NaN when not refined).
   double iou = std::numeric_limits<double>::quiet_NaN();
-  /// The strongest other hypothesis of the particle filter (FilterEstimate::runner_up): object
-  /// (-1 = none) and name, its share of the posterior weight, view direction and roll.
+  /// The strongest other hypothesis: the particle filter's (FilterEstimate::runner_up), or a
+  /// mirror twin of the reported view that scores as well (mass NaN): object (-1 = none) and
+  /// name, its share of the posterior weight, view direction and roll.
   int runner_up_object = -1;
   std::string runner_up_name;
   double runner_up_mass = std::numeric_limits<double>::quiet_NaN();

@@ -37,9 +37,9 @@ ConfidenceModel ConfidenceModel::Default() {
   // Fitted by `silpose eval confidence --sequences 3 --frames 100` on the sample models (fit on
   // bunny and cow and their look-alikes; docs/confidence.md), printed to model.txt.
   ConfidenceModel model;
-  model.bias = -8.49285147;
-  model.weights = {0.29616542,  -0.407831078, -1.31699209, 0.532038254, 0.153695415, 6.85877495,
-                   -35.7909732, 0.0827631998, 3.71025914,  0.234676198, 0.290959592};
+  model.bias = -8.66630556;
+  model.weights = {0.418198083, -0.525975994, -1.34197605, 0.520792684, 0.304042464, 6.5285324,
+                   -34.136764,  0.108354101,  4.33033582,  -4.79135576, 0.284848779};
   return model;
 }
 
@@ -73,8 +73,8 @@ bool TrackStateOptions::Check(std::string* error) const {
     message << "twin score gap must be >= 0, got " << twin_score_gap;
   } else if (!(unknown_fit_iou >= 0.0 && unknown_fit_iou <= 1.0)) {
     message << "unknown-object IoU must be in [0, 1], got " << unknown_fit_iou;
-  } else if (fit_frames < 1 || fit_frames > 100000) {
-    message << "fit frames must be in [1, 100000], got " << fit_frames;
+  } else if (fit_frames < 3 || fit_frames > 100000) {
+    message << "fit frames must be in [3, 100000], got " << fit_frames;
   } else if (!(abrupt_area_change > 0.0) || !std::isfinite(abrupt_area_change)) {
     message << "abrupt area change must be > 0, got " << abrupt_area_change;
   } else {
@@ -92,18 +92,25 @@ TrackStateEstimator::TrackStateEstimator(const TrackStateOptions& options) : opt
 TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* features,
                                                           double runner_up_score) {
   Output out;
-  const bool fit = features->has_fit && std::isfinite(features->iou);
-  recent_fit_.push_back(fit ? features->iou : 0.0);
-  recent_rms_.push_back(fit && std::isfinite(features->outline_rms) ? features->outline_rms : 1.0);
-  while (static_cast<int>(recent_fit_.size()) > options_.fit_frames) {
-    recent_fit_.pop_front();
-    recent_rms_.pop_front();
+  // The fit window holds the frames with a fit only (a frame without a pose says nothing about
+  // how well the model explains the silhouette).
+  if (features->has_fit && std::isfinite(features->iou)) {
+    recent_fit_.push_back(features->iou);
+    recent_rms_.push_back(std::isfinite(features->outline_rms) ? features->outline_rms : 1.0);
+    while (static_cast<int>(recent_fit_.size()) > options_.fit_frames) {
+      recent_fit_.pop_front();
+      recent_rms_.pop_front();
+    }
   }
-  double mean_fit = 0.0, mean_rms = 0.0;
-  for (double f : recent_fit_) mean_fit += f;
-  for (double r : recent_rms_) mean_rms += r;
-  mean_fit /= static_cast<double>(recent_fit_.size());
-  mean_rms /= static_cast<double>(recent_rms_.size());
+  const bool fit_known = !recent_fit_.empty();
+  double mean_fit = 0.0, mean_rms = 1.0;
+  if (fit_known) {
+    mean_fit = mean_rms = 0.0;
+    for (double f : recent_fit_) mean_fit += f;
+    for (double r : recent_rms_) mean_rms += r;
+    mean_fit /= static_cast<double>(recent_fit_.size());
+    mean_rms /= static_cast<double>(recent_rms_.size());
+  }
   features->recent_iou = mean_fit;
   features->recent_outline_rms = mean_rms;
   out.confidence = options_.model.Evaluate(*features);
@@ -121,11 +128,11 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
        features->twin_score_gap <= options_.twin_score_gap);
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
-  } else if (ambiguous && mean_fit >= options_.unknown_fit_iou) {
+  } else if (ambiguous && fit_known && mean_fit >= options_.unknown_fit_iou) {
     out.state = TrackState::kAmbiguous;
   } else if (recently_tracked) {
     out.state = TrackState::kBadSegmentation;
-  } else if (mean_fit < options_.unknown_fit_iou) {
+  } else if (fit_known && mean_fit < options_.unknown_fit_iou) {
     out.state = TrackState::kUnknownObject;
   } else if (features->area_change > options_.abrupt_area_change) {
     out.state = TrackState::kBadSegmentation;

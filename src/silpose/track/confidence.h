@@ -24,13 +24,12 @@
 //    of the reported mode's weight and a score within ambiguous_score_gap of the reported one):
 //    kTracking;
 //  - a competing mode, or a mirror twin whose score is within twin_score_gap of the reported one
-//    (ConfidenceFeatures::twin_score_gap), and the model fits (the mean IoU of the last
-//    fit_frames frames with a silhouette, 0 for a frame without a fit, at least unknown_fit_iou):
-//    kAmbiguous;
+//    (ConfidenceFeatures::twin_score_gap), and the model fits (the mean IoU over the last
+//    fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou): kAmbiguous;
 //  - the object was tracked (kTracking) in at least 3 of the last fit_frames frames:
 //    kBadSegmentation (an occluder, a hand, a failed mask: the outline no longer fits);
 //  - that mean IoU below unknown_fit_iou: kUnknownObject (no database object has fitted for a
-//    while);
+//    while; never before the first frame with a fit);
 //  - the area changed by more than abrupt_area_change (|ln| of the ratio) since the last frame
 //    with a silhouette: kBadSegmentation;
 //  - otherwise kLost.
@@ -60,8 +59,8 @@ struct ConfidenceFeatures {
   double outline_rms = 0.0;
   /// |ln(area / area of the previous frame with a silhouette)|; 0 for the first.
   double area_change = 0.0;
-  /// Means of iou and outline_rms over the last TrackStateOptions::fit_frames frames with a
-  /// silhouette, this one included (a frame without fit counts IoU 0 and RMS 1); set by
+  /// Means of iou and outline_rms over the last TrackStateOptions::fit_frames frames with a fit,
+  /// this one included if it has one (0 and 1 before any fit); set by
   /// TrackStateEstimator::Measured. Persistent misfit is the mark of an object not in the
   /// database; a single bad frame is not.
   double recent_iou = 0.0;
@@ -96,8 +95,9 @@ struct ConfidenceModel {
 struct TrackStateOptions {
   ConfidenceModel model = ConfidenceModel::Default();
   /// Confidence from which a frame is kTracking, in [0, 1]: the lowest threshold at which at most
-  /// 1 % of the fit set's frames above it were wrong (docs/confidence.md).
-  double min_confidence = 0.8;
+  /// 1 % of the fit set's frames above it were wrong (0.748, printed by `silpose eval
+  /// confidence`; docs/confidence.md), rounded.
+  double min_confidence = 0.75;
   /// kAmbiguous: runner-up mass >= this times the reported mode's, > 0 ...
   double ambiguous_mass_ratio = 0.5;
   /// ... and its score >= the reported score minus this, >= 0.
@@ -109,7 +109,7 @@ struct TrackStateOptions {
   double twin_score_gap = 0.002;
   /// kUnknownObject below this mean IoU over the last fit_frames frames, in [0, 1].
   double unknown_fit_iou = 0.9;
-  /// Frames of memory for the unknown-object and bad-segmentation rules, >= 1.
+  /// Frames of memory for the unknown-object and bad-segmentation rules, >= 3.
   int fit_frames = 10;
   /// kBadSegmentation when the area changes by more than this (|ln| of the ratio), > 0.
   double abrupt_area_change = 0.25;

@@ -91,6 +91,14 @@ TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
     EXPECT_EQ(out.state, TrackState::kTracking) << i;
     EXPECT_GE(out.confidence, tracker.options().min_confidence);
   }
+  // Refinement off (no fit): judged from the posterior and the score only, never unknown.
+  TrackStateEstimator no_fit;
+  ConfidenceFeatures plain = GoodFit();
+  plain.has_fit = false;
+  const TrackStateEstimator::Output unfitted = no_fit.Measured(&plain, -1.0);
+  EXPECT_NE(unfitted.state, TrackState::kTracking);  // the model needs the fit to trust a frame
+  EXPECT_NE(unfitted.state, TrackState::kUnknownObject);  // and without one it accuses nothing
+  EXPECT_EQ(plain.recent_outline_rms, 1.0);
   // Then a poor frame after established tracking: bad segmentation, not an unknown object.
   ConfidenceFeatures occluded = PoorFit();
   occluded.area_change = 0.5;
@@ -107,6 +115,23 @@ TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
   EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kAmbiguous);
   mirrored.twin_score_gap = 0.2;
   EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kTracking);
+  // Not tracked lately, the model fits, the area jumps: bad segmentation; without the jump: lost.
+  TrackStateEstimator fresh;
+  ConfidenceFeatures jump = GoodFit();
+  jump.score = 0.5;
+  jump.mode_mass = 0.1;
+  jump.object_probability = 0.3;
+  jump.iou = 0.92;
+  jump.outline_rms = 0.06;
+  jump.area_change = 1.0;
+  EXPECT_EQ(fresh.Measured(&jump, -1.0).state, TrackState::kBadSegmentation);
+  jump.area_change = 0.0;
+  EXPECT_EQ(fresh.Measured(&jump, -1.0).state, TrackState::kLost);
+  // A competing mode with a poor fit is not called ambiguous: the fit rules decide.
+  TrackStateEstimator misfit;
+  ConfidenceFeatures poor_twin = PoorFit();
+  poor_twin.runner_up_mass = 0.4;
+  EXPECT_EQ(misfit.Measured(&poor_twin, poor_twin.score).state, TrackState::kUnknownObject);
   // ... but not when the runner-up's score is clearly worse.
   ConfidenceFeatures clear = GoodFit();
   clear.runner_up_mass = 0.9;
@@ -121,7 +146,7 @@ TEST(TrackStateOptions, InvalidValuesAreRefusedWithTheirName) {
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("minimum confidence"), std::string::npos);
   options = {};
-  options.fit_frames = 0;
+  options.fit_frames = 2;  // the bad-segmentation rule needs 3 tracked frames in the window
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("fit frames"), std::string::npos);
   EXPECT_THROW(TrackStateEstimator{options}, Error);

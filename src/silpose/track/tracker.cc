@@ -125,11 +125,12 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
   if (filter_) filter_->ObserveRotation(on_axis);
 }
 
-bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFrame* tracked,
-                              MirrorTwin* twin) {
+bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int view, int shell,
+                              TrackedFrame* tracked, MirrorTwin* twin) {
   const FrameResult& result = tracked->result;
   const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
-  if (model.symmetry.mirrors.empty() || !result.view_dir_in_object || radii.empty()) return false;
+  if (model.symmetry.mirrors.empty() || !result.view_dir_in_object || radii.empty() || view < 0)
+    return false;
   const Eigen::Vector3d d = result.view_dir_in_object->normalized();
   const ViewEquivalence& same = equivalence_[static_cast<size_t>(result.object)];
   bool found = false;
@@ -139,12 +140,17 @@ bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFr
     // plane's reflection of directions (geometry/symmetry.h).
     const Eigen::Vector3d other = (-d + 2.0 * d.dot(n) * n).normalized();
     if (same.AngleDeg(other, d) <= options_.filter.mode_radius_deg) continue;
-    const int view = database_.sphere.NearestView(other);
-    if (view < 0 || !spectra_->Usable(result.object, view, shell)) continue;
-    if (!found) matcher_->correlator().Transform(radii, &twin_query_);
-    const CorrelationPeak peak = matcher_->Score(twin_query_, result.object, view, shell);
+    const int twin_view = database_.sphere.NearestView(other);
+    if (twin_view < 0 || !spectra_->Usable(result.object, twin_view, shell)) continue;
+    if (!found) {
+      matcher_->correlator().Transform(radii, &twin_query_);
+      if (!twin_query_.has_variance || !spectra_->Usable(result.object, view, shell)) return false;
+      // The reported view scored the same way (best over all rolls) as its twins.
+      twin->reported_score = matcher_->Score(twin_query_, result.object, view, shell).score;
+    }
+    const CorrelationPeak peak = matcher_->Score(twin_query_, result.object, twin_view, shell);
     if (!found || peak.score > twin->score) {
-      twin->view = view;
+      twin->view = twin_view;
       twin->score = peak.score;
       twin->roll_deg = peak.RollDeg(static_cast<int>(radii.size()));
     }
@@ -153,9 +159,37 @@ bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFr
   return found;
 }
 
-void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int shell) {
+void Tracker::MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px) {
+  if (tracked->refinement && options_.refinement.compute_iou) {
+    *iou = tracked->refinement->iou;
+    *rms_px = tracked->refinement->final_rms_px;
+    return;
+  }
+  if (!tracked->pose || tracked->result.object < 0) return;
+  const TriangleMesh& mesh = database_.models[static_cast<size_t>(tracked->result.object)].mesh;
+  if (mesh.triangles.empty()) return;
+  // Without refinement the fit is measured after one Levenberg-Marquardt step from the reported
+  // pose (the reported pose stays as it is).
+  ContourRefinementOptions check = options_.refinement;
+  check.max_iterations = 1;
+  check.compute_iou = true;
+  try {
+    const FrameOutline outline(tracked->segmentation.mask);
+    const ContourRefinementResult fit =
+        RefinePoseToContour(mesh, camera_, outline, tracked->pose->camera_from_object, check);
+    *iou = fit.iou;
+    *rms_px = fit.final_rms_px;
+  } catch (const Error&) {
+    // No fit for this frame (e.g. the object centre behind the camera): the features say so.
+  }
+}
+
+void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int view,
+                     int shell) {
   FrameResult& result = tracked->result;
-  if (tracked->refinement && options_.refinement.compute_iou) result.iou = tracked->refinement->iou;
+  double fit_iou = std::nan(""), fit_rms_px = std::nan("");
+  if (usable) MeasureFit(tracked, &fit_iou, &fit_rms_px);
+  if (std::isfinite(fit_iou)) result.iou = fit_iou;
   const FilterEstimate* estimate = tracked->estimate ? &*tracked->estimate : nullptr;
   if (estimate != nullptr && measured_frames_ > 0 && estimate->runner_up.object >= 0) {
     const FilterEstimate::RunnerUp& r = estimate->runner_up;
@@ -183,14 +217,16 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   }
   features.score = result.score;
   const PolarSignature& signature = tracked->silhouette.signature;
-  if (tracked->refinement && options_.refinement.compute_iou && signature.mean_radius_px > 0.0) {
+  if (std::isfinite(fit_iou) && std::isfinite(fit_rms_px) && signature.mean_radius_px > 0.0) {
     features.has_fit = true;
-    features.iou = tracked->refinement->iou;
-    features.outline_rms = tracked->refinement->final_rms_px / signature.mean_radius_px;
+    features.iou = fit_iou;
+    features.outline_rms = fit_rms_px / signature.mean_radius_px;
   }
   MirrorTwin twin;
-  const bool has_twin = usable && ScoreMirrorTwin(radii, shell, tracked, &twin);
-  if (has_twin) features.twin_score_gap = result.score - static_cast<double>(twin.score);
+  const bool has_twin = usable && ScoreMirrorTwin(radii, view, shell, tracked, &twin);
+  if (has_twin)
+    features.twin_score_gap =
+        static_cast<double>(twin.reported_score) - static_cast<double>(twin.score);
   if (previous_area_px_ > 0.0 && signature.area_px > 0.0)
     features.area_change = std::abs(std::log(signature.area_px / previous_area_px_));
   previous_area_px_ = signature.area_px;
@@ -200,11 +236,13 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   tracked->confidence_features = features;
   result.confidence = out.confidence;
   result.state = out.state;
-  // A mirror twin that explains the silhouette as well as the reported view is the runner-up
-  // (unless the filter's own runner-up is already as good).
-  if (has_twin && (result.runner_up_object < 0 ||
-                   static_cast<double>(twin.score) >
-                       (estimate != nullptr ? estimate->runner_up.score : -1.0f))) {
+  // A mirror twin that explains the silhouette as well as the reported view (within the state's
+  // twin gap) is the runner-up, unless the filter's own runner-up made the frame ambiguous.
+  const bool mode_ambiguous =
+      estimate != nullptr && estimate->runner_up.object >= 0 &&
+      features.runner_up_mass >= options_.state.ambiguous_mass_ratio * features.mode_mass &&
+      runner_up_score >= features.score - options_.state.ambiguous_score_gap;
+  if (has_twin && features.twin_score_gap <= options_.state.twin_score_gap && !mode_ambiguous) {
     result.runner_up_object = result.object;
     result.runner_up_name = result.object_name;
     result.runner_up_mass = std::nan("");
@@ -331,7 +369,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
-  Assess(&tracked, usable, radii, shell);
+  Assess(&tracked, usable, radii, view, shell);
   if (options_.canonical_poses && result.object >= 0 && result.view_dir_in_object) {
     const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result.object)].symmetry;
     if (symmetry.HasRotations()) ToCanonicalForm(symmetry, &result);

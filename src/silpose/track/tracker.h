@@ -153,12 +153,19 @@ class Tracker {
     int view = -1;
     float score = 0.0f;
     double roll_deg = 0.0;
+    /// The reported database view's score, computed the same way (best over all rolls).
+    float reported_score = 0.0f;
   };
-  /// The best-scoring mirror twin of the reported view farther than the filter's mode radius
-  /// (modulo rotational symmetry); false if the object has no mirror plane or no such twin.
-  bool ScoreMirrorTwin(std::span<const float> radii, int shell, TrackedFrame* tracked,
+  /// The best-scoring mirror twin of the reported database view `view` farther than the filter's
+  /// mode radius (modulo rotational symmetry); false if the object has no mirror plane, no such
+  /// twin, or the frame's signature is flat.
+  bool ScoreMirrorTwin(std::span<const float> radii, int view, int shell, TrackedFrame* tracked,
                        MirrorTwin* twin);
-  void Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int shell);
+  /// The IoU and outline RMS (pixels) of the model at the frame's pose: the refinement's, or
+  /// (refinement off) after one refinement step; unchanged (NaN) without a pose.
+  void MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px);
+  void Assess(TrackedFrame* tracked, bool usable, std::span<const float> radii, int view,
+              int shell);
 
   std::unique_ptr<TrackStateEstimator> state_;
   /// Per model: views alike by its rotational symmetries.
