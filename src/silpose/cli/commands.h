@@ -77,6 +77,9 @@ std::vector<std::filesystem::path> FilesWithExtensions(const std::filesystem::pa
                                                        const std::vector<std::string>& extensions);
 /// All mesh files (by extension) in a folder, sorted by name.
 std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& directory);
+/// The meshes an eval command's --models names: every mesh in each folder, and each file. Throws
+/// silpose::Error naming an item that is neither, or if no mesh is found.
+std::vector<std::filesystem::path> MeshPathsFromModelsOption(const std::vector<std::string>& items);
 /// Parses "X,Y,Z" into three finite numbers; throws silpose::Error naming `what` otherwise.
 std::vector<double> ParseTriple(const std::string& text, const std::string& what);
 /// Human-readable size ("12.3 MB").

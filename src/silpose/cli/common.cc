@@ -30,6 +30,23 @@ std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& dire
   return FilesWithExtensions(directory, {".obj", ".ply", ".stl", ".off", ".gltf", ".glb"});
 }
 
+std::vector<std::filesystem::path> MeshPathsFromModelsOption(
+    const std::vector<std::string>& items) {
+  std::vector<std::filesystem::path> paths;
+  for (const std::string& item : items) {
+    std::error_code error;
+    if (std::filesystem::is_directory(item, error)) {
+      for (const auto& file : MeshFilesIn(item)) paths.push_back(file);
+    } else if (std::filesystem::is_regular_file(item, error)) {
+      paths.emplace_back(item);
+    } else {
+      ThrowError(item, ": no such mesh file or folder (--models)");
+    }
+  }
+  if (paths.empty()) ThrowError("--models: no mesh files found");
+  return paths;
+}
+
 std::vector<std::filesystem::path> SampleModels(const std::string& override_dir) {
   std::vector<std::filesystem::path> candidates;
   if (!override_dir.empty()) {

@@ -39,22 +39,6 @@ struct EvalConfidenceArguments {
        evaluate_given = false;
 };
 
-std::vector<std::filesystem::path> MeshPaths(const std::vector<std::string>& items) {
-  std::vector<std::filesystem::path> paths;
-  for (const std::string& item : items) {
-    std::error_code error;
-    if (std::filesystem::is_directory(item, error)) {
-      for (const auto& file : MeshFilesIn(item)) paths.push_back(file);
-    } else if (std::filesystem::is_regular_file(item, error)) {
-      paths.emplace_back(item);
-    } else {
-      ThrowError(item, ": no such mesh file or folder (--models)");
-    }
-  }
-  if (paths.empty()) ThrowError("--models: no mesh files found");
-  return paths;
-}
-
 std::string Joined(const std::vector<std::string>& items) {
   std::string text;
   for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
@@ -139,7 +123,7 @@ void RunEvalConfidence(const EvalConfidenceArguments& arguments) {
   int views = arguments.views;
   std::vector<std::string> unknown_names = arguments.unknown;
   std::vector<std::filesystem::path> paths;
-  if (!arguments.models.empty()) paths = MeshPaths(arguments.models);
+  if (!arguments.models.empty()) paths = MeshPathsFromModelsOption(arguments.models);
   if (arguments.quick) {
     if (paths.empty()) paths = SampleModels();
     if (!arguments.views_given) views = 150;

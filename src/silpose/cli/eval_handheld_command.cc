@@ -72,23 +72,6 @@ std::vector<MaskQuality> ParseQualities(const std::string& text) {
   return {quality};
 }
 
-// Mesh files from --models: folders (every mesh in them) and files.
-std::vector<std::filesystem::path> ModelPaths(const std::vector<std::string>& items) {
-  std::vector<std::filesystem::path> paths;
-  for (const std::string& item : items) {
-    std::error_code error;
-    if (std::filesystem::is_directory(item, error)) {
-      for (const auto& file : MeshFilesIn(item)) paths.push_back(file);
-    } else if (std::filesystem::is_regular_file(item, error)) {
-      paths.emplace_back(item);
-    } else {
-      ThrowError(item, ": no such mesh file or folder (--models)");
-    }
-  }
-  if (paths.empty()) ThrowError("--models: no mesh files found");
-  return paths;
-}
-
 std::string CommandLine() {
   std::ifstream file("/proc/self/cmdline", std::ios::binary);
   std::string text, part;
@@ -204,7 +187,7 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
   int views = arguments.views;
   std::vector<std::string> evaluate = arguments.evaluate;
   std::vector<std::filesystem::path> paths;
-  if (!arguments.models.empty()) paths = ModelPaths(arguments.models);
+  if (!arguments.models.empty()) paths = MeshPathsFromModelsOption(arguments.models);
   if (arguments.quick) {
     // The test variant: the sample models, a coarse database, bunny and hand, short sequences.
     if (paths.empty()) paths = SampleModels();

@@ -406,10 +406,7 @@ ConfidenceExperimentResult RunConfidenceExperiment(const ViewDatabase& database,
   for (ConfidenceRun& run : fit_runs) {
     for (ConfidenceFrame& f : run.frames) {
       if (!f.silhouette || !f.has_features) continue;
-      double z = result.model.bias;
-      for (int j = 0; j < kNumFeatures; ++j)
-        z += result.model.weights[static_cast<size_t>(j)] * f.features[static_cast<size_t>(j)];
-      f.confidence = 1.0 / (1.0 + std::exp(-z));
+      f.confidence = result.model.Evaluate(f.features);
       fit_frames.emplace_back(f.confidence, f.correct);
     }
   }

@@ -44,7 +44,10 @@ ConfidenceModel ConfidenceModel::Default() {
 }
 
 double ConfidenceModel::Evaluate(const ConfidenceFeatures& features) const {
-  const std::array<double, ConfidenceFeatures::kSize> x = features.Vector();
+  return Evaluate(features.Vector());
+}
+
+double ConfidenceModel::Evaluate(const std::array<double, ConfidenceFeatures::kSize>& x) const {
   double z = bias;
   for (int i = 0; i < ConfidenceFeatures::kSize; ++i) z += weights[i] * x[i];
   if (!std::isfinite(z)) return z > 0.0 ? 1.0 : 0.0;
@@ -120,12 +123,13 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   int tracked_frames = 0;
   for (bool t : recent_tracking_) tracked_frames += t;
   const bool recently_tracked = tracked_frames >= kEstablished;
-  const bool ambiguous =
-      (features->runner_up_mass > 0.0 &&
-       features->runner_up_mass >= options_.ambiguous_mass_ratio * features->mode_mass &&
-       runner_up_score >= features->score - options_.ambiguous_score_gap) ||
-      (std::isfinite(features->twin_score_gap) &&
-       features->twin_score_gap <= options_.twin_score_gap);
+  out.competing_mode =
+      features->runner_up_mass > 0.0 &&
+      features->runner_up_mass >= options_.ambiguous_mass_ratio * features->mode_mass &&
+      runner_up_score >= features->score - options_.ambiguous_score_gap;
+  out.twin_alike = std::isfinite(features->twin_score_gap) &&
+                   features->twin_score_gap <= options_.twin_score_gap;
+  const bool ambiguous = out.competing_mode || out.twin_alike;
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
   } else if (ambiguous && fit_known && mean_fit >= options_.unknown_fit_iou) {

@@ -88,6 +88,8 @@ struct ConfidenceModel {
   /// The model fitted by `silpose eval confidence` on the tuning models (docs/confidence.md).
   static ConfidenceModel Default();
   double Evaluate(const ConfidenceFeatures& features) const;
+  /// The same from the regression's inputs (ConfidenceFeatures::Vector).
+  double Evaluate(const std::array<double, ConfidenceFeatures::kSize>& x) const;
   /// False (with the reason) for a non-finite coefficient.
   bool Check(std::string* error = nullptr) const;
 };
@@ -126,6 +128,10 @@ class TrackStateEstimator {
   struct Output {
     double confidence = 0.0;
     TrackState state = TrackState::kNoSilhouette;
+    /// Which ambiguity rule held (whatever the state): a competing posterior mode, a mirror twin
+    /// within twin_score_gap.
+    bool competing_mode = false;
+    bool twin_alike = false;
   };
   /// A frame with a silhouette: sets features->recent_iou and recent_outline_rms, then the
   /// confidence and state. `runner_up_score` is the competing mode's score (ignored when

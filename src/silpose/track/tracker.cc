@@ -238,11 +238,7 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   result.state = out.state;
   // A mirror twin that explains the silhouette as well as the reported view (within the state's
   // twin gap) is the runner-up, unless the filter's own runner-up made the frame ambiguous.
-  const bool mode_ambiguous =
-      estimate != nullptr && estimate->runner_up.object >= 0 &&
-      features.runner_up_mass >= options_.state.ambiguous_mass_ratio * features.mode_mass &&
-      runner_up_score >= features.score - options_.state.ambiguous_score_gap;
-  if (has_twin && features.twin_score_gap <= options_.state.twin_score_gap && !mode_ambiguous) {
+  if (out.twin_alike && !out.competing_mode) {
     result.runner_up_object = result.object;
     result.runner_up_name = result.object_name;
     result.runner_up_mass = std::nan("");
