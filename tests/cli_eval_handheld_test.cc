@@ -67,13 +67,13 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesTheDocumentedSummary) {
             "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
             "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
             "all_right_object_percent,all_rotation_median_deg,rotation_median_symmetric_deg,"
-            "view_error_symmetric_mean");
+            "view_error_symmetric_mean,wrong_twin_frames");
   // handheld, orbit-3, orbit-7, orbit-15 x perfect, threshold x filter, brute-force.
   ASSERT_EQ(summary.size(), 1u + 4u * 2u * 2u);
   std::set<std::string> kinds;
   for (size_t i = 1; i < summary.size(); ++i) {
     const std::vector<std::string> cells = Cells(summary[i]);
-    ASSERT_EQ(cells.size(), 19u) << summary[i];
+    ASSERT_EQ(cells.size(), 20u) << summary[i];
     kinds.insert(cells[0]);
     // Two models (bunny, hand), one sequence each: 40 - 10 hand-held frames, 30 - 10 per orbit.
     EXPECT_EQ(cells[3], "2");
@@ -95,13 +95,13 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {
   EXPECT_EQ(frames[0],
             "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
             "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
-            "translation_error_percent,view_error,roll_error_deg,time_ms");
+            "translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin");
   // 2 models x (40 + 3 x 30 frames) x 2 mask qualities x 2 trackers.
   EXPECT_EQ(frames.size(), 1u + 2u * 130u * 2u * 2u);
   std::set<std::string> seeds;
   for (size_t i = 1; i < frames.size(); ++i) {
     const std::vector<std::string> cells = Cells(frames[i]);
-    ASSERT_EQ(cells.size(), 19u) << frames[i];
+    ASSERT_EQ(cells.size(), 20u) << frames[i];
     seeds.insert(cells[3]);
   }
   // Two hand-held sequences and six orbits, each with its own seed.

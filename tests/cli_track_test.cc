@@ -132,6 +132,46 @@ TEST_F(CliTrackTest, TruncatedVideoKeepsTheFramesBeforeTheCut) {
   EXPECT_LT(rows, 40u);
 }
 
+TEST_F(CliTrackTest, SmoothingReportsEveryFrameInOrderWithAllOutputs) {
+  const std::string common = "track -d " + database_ + " " + sequence_ + "/video.avi --camera " +
+                             sequence_ + "/camera.yml --segment bgsub --background " + sequence_ +
+                             "/background.png --seed 2 --ground-truth " + sequence_ +
+                             "/groundtruth.csv";
+  for (const std::string smoothing : {"--lag 10", "--smooth"}) {
+    SCOPED_TRACE(smoothing);
+    const std::string poses = Path("smoothed.csv");
+    const std::string overlay = Path("smoothed.avi");
+    const CommandResult run = Silpose(common + " " + smoothing + " -o " + poses + " --json " +
+                                      Path("smoothed.jsonl") + " --overlay " + overlay);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find("smoothing ("), std::string::npos) << run.out;
+    const std::vector<std::string> rows = ReadLines(poses);
+    ASSERT_EQ(rows.size(), 61u);
+    int right = 0;
+    for (size_t r = 1; r < rows.size(); ++r) {
+      const std::vector<std::string> fields = Split(rows[r]);
+      ASSERT_EQ(fields.size(), 38u) << rows[r];
+      const int frame = std::stoi(fields[0]);
+      EXPECT_EQ(frame, static_cast<int>(r) - 1);
+      const std::string truth = frame < 40 ? "hand" : "bunny";
+      if ((frame >= 10 && frame < 40) || frame >= 50) right += fields[1] == truth;
+    }
+    EXPECT_GE(right, 38);  // of 40 settled frames, as without smoothing
+    EXPECT_EQ(ReadLines(Path("smoothed.jsonl")).size(), 60u);
+    EXPECT_GT(std::filesystem::file_size(overlay), 60u * 5000u);
+  }
+  // What cannot be smoothed is refused up front.
+  CommandResult run = Silpose(common + " --smooth --brute-force -o " + Path("refused.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("--brute-force"), std::string::npos) << run.err;
+  run = Silpose(common + " --smooth --lag 5 -o " + Path("refused.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("not both"), std::string::npos) << run.err;
+  run = Silpose(common + " --lag -1 -o " + Path("refused.csv"));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("--lag"), std::string::npos) << run.err;
+}
+
 TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {
   const std::filesystem::path folder = directory_ / "broken";
   std::filesystem::create_directories(folder);

@@ -25,6 +25,7 @@ from silpose._silpose import (
     Matcher,
     Mesh,
     PosesWriter,
+    Smoother,
     SyntheticSequence,
     Tracker,
     TrackerOptions,
@@ -47,6 +48,7 @@ __all__ = [
     "Matcher",
     "Mesh",
     "PosesWriter",
+    "Smoother",
     "SyntheticSequence",
     "Tracker",
     "TrackerOptions",
@@ -62,7 +64,8 @@ __all__ = [
 ]
 
 
-def track_video(database, input, output=None, camera=None, options=None, max_frames=0):
+def track_video(database, input, output=None, camera=None, options=None, max_frames=0, lag=0,
+                smooth=False):
     """Tracks every frame of `input` as 'silpose track' does and returns the TrackResults.
 
     database: a ViewDatabase or a database file path. input: an AVI video, an image folder or a
@@ -70,7 +73,9 @@ def track_video(database, input, output=None, camera=None, options=None, max_fra
     calibration file path, or None: the sequence folder's camera.yml, else Camera.default() of the
     frames' size. options: TrackerOptions (default: frames are masks). For a sequence folder and
     segment='bgsub' without a background image, the folder's background.png is used, as
-    'silpose track' does. max_frames: stop after this many frames (0 = all).
+    'silpose track' does. max_frames: stop after this many frames (0 = all). lag (frames) or
+    smooth: results smoothed by the particle histories, as 'silpose track --lag N' / '--smooth'
+    (Smoother; the results still come back one per frame, in order).
     """
     import os
 
@@ -87,9 +92,19 @@ def track_video(database, input, output=None, camera=None, options=None, max_fra
         camera = os.path.join(input, "camera.yml")
     if camera is not None and not isinstance(camera, Camera):
         camera = Camera.read(os.fspath(camera))
+    if smooth and lag:
+        raise Error("give smooth or lag, not both")
     writer = PosesWriter(os.fspath(output)) if output is not None else None
     results = []
     tracker = None
+    frames = 0
+
+    def emit(done):
+        for result in done:
+            results.append(result)
+            if writer is not None:
+                writer.write(result)
+
     try:
         for frame in reader:
             if tracker is None:
@@ -99,15 +114,22 @@ def track_video(database, input, output=None, camera=None, options=None, max_fra
                 elif (camera.width, camera.height) != (width, height):
                     raise Error(f"the camera is {camera.width}x{camera.height} pixels but the "
                                 f"frames of {input} are {width}x{height}: wrong calibration file?")
-                tracker = Tracker(database, camera, options)
-            result = tracker.process(frame)
-            results.append(result)
-            if writer is not None:
-                writer.write(result)
-            if max_frames and len(results) >= max_frames:
+                if smooth or lag:
+                    tracker = Smoother(database, camera, options,
+                                       Smoother.OFFLINE if smooth else lag)
+                else:
+                    tracker = Tracker(database, camera, options)
+            if isinstance(tracker, Smoother):
+                emit(tracker.process(frame))
+            else:
+                emit([tracker.process(frame)])
+            frames += 1
+            if max_frames and frames >= max_frames:
                 break
         if tracker is None:
             raise Error(f"{input}: no frames")
+        if isinstance(tracker, Smoother):
+            emit(tracker.finish())
     finally:
         if writer is not None:
             writer.close()

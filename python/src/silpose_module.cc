@@ -29,6 +29,7 @@
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/shape/polar_signature.h"
 #include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/smoother.h"
 #include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
 
@@ -188,6 +189,30 @@ TrackResult ToTrackResult(TrackedFrame&& tracked) {
   out.segmentation = ToString(tracked.segmentation.status);
   out.segmentation_message = std::move(tracked.segmentation.message);
   return out;
+}
+
+// A tracker and the smoother fed through it (Python's Smoother owns both).
+struct SmoothedTracker {
+  SmoothedTracker(const ViewDatabase& database, const PinholeCamera& camera, TrackerOptions options,
+                  int lag) {
+    int64_t& kept = options.filter.max_history_frames;
+    if (lag == TrackSmoother::kOffline) {
+      kept = 0;
+    } else if (kept != 0 && kept <= lag) {
+      kept = lag + 1;
+    }
+    tracker = std::make_unique<Tracker>(database, camera, options);
+    smoother = std::make_unique<TrackSmoother>(*tracker, lag);
+  }
+  std::unique_ptr<Tracker> tracker;
+  std::unique_ptr<TrackSmoother> smoother;
+};
+
+std::vector<TrackResult> ToTrackResults(std::vector<TrackedFrame>&& frames) {
+  std::vector<TrackResult> results;
+  results.reserve(frames.size());
+  for (TrackedFrame& frame : frames) results.push_back(ToTrackResult(std::move(frame)));
+  return results;
 }
 
 // Matching: the spectra and one matcher, bound to a database that outlives them.
@@ -968,6 +993,56 @@ void BindTrack(py::module_& m) {
       .def_property_readonly("database", &Tracker::database,
                              py::return_value_policy::reference_internal,
                              "The database tracked against.");
+
+  py::class_<SmoothedTracker>(
+      m, "Smoother",
+      "A Tracker whose results come out smoothed by the particle filter's histories "
+      "('silpose track --lag N' / '--smooth'; docs/tracking.md): with a lag N, each frame's "
+      "result N frames late, corrected by what followed; offline (lag = Smoother.OFFLINE), every "
+      "result at finish(). Keeps the database alive.")
+      .def(py::init([](const ViewDatabase& database, const PinholeCamera& camera,
+                       std::optional<TrackerOptions> options, int lag) {
+             return std::make_unique<SmoothedTracker>(database, camera,
+                                                      options.value_or(TrackerOptions{}), lag);
+           }),
+           py::arg("database"), py::arg("camera"), py::arg("options") = py::none(),
+           py::arg("lag") = 10, py::keep_alive<1, 2>(),
+           "A smoothed tracker of frames of `camera`'s size against `database`; lag in frames "
+           "(>= 0) or Smoother.OFFLINE. Raises silpose.Error for invalid options, camera or lag, "
+           "or brute-force options.")
+      .def_readonly_static("OFFLINE", &TrackSmoother::kOffline,
+                           "The lag that means: every result at finish().")
+      .def(
+          "process",
+          [](SmoothedTracker& smoothed, const py::array& frame) {
+            const cv::Mat view = MatView(frame, "frame");
+            py::gil_scoped_release release;
+            return ToTrackResults(smoothed.smoother->Process(view));
+          },
+          py::arg("frame"),
+          "Tracks the next frame (as Tracker.process) and returns the results that are now final, "
+          "oldest first: the one `lag` frames back (none during the first `lag` frames; offline "
+          "none).")
+      .def(
+          "finish",
+          [](SmoothedTracker& smoothed) {
+            py::gil_scoped_release release;
+            return ToTrackResults(smoothed.smoother->Finish());
+          },
+          "The results still held, oldest first, smoothed by everything tracked. Call at the "
+          "end of the stream.")
+      .def_property_readonly(
+          "lag", [](const SmoothedTracker& s) { return s.smoother->lag(); },
+          "Frames of lag, or Smoother.OFFLINE.")
+      .def_property_readonly(
+          "num_frames", [](const SmoothedTracker& s) { return s.tracker->num_frames(); },
+          "Frames tracked so far.")
+      .def_property_readonly(
+          "num_pending", [](const SmoothedTracker& s) { return s.smoother->num_pending(); },
+          "Frames tracked whose results are not out yet.")
+      .def_property_readonly(
+          "num_revised", [](const SmoothedTracker& s) { return s.smoother->num_revised(); },
+          "Results so far whose object or view the smoothing changed.");
 
   py::class_<PosesCsvWriter>(m, "PosesWriter",
                              "Writes POSES.csv (docs/tracking.md), one row per TrackResult, as "

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import silpose
-from conftest import cli_track, model, read_poses
+from conftest import cli_track, model, read_poses, run_cli
 
 
 def rotation_angle_deg(a, b):
@@ -124,3 +124,49 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
         silpose.FrameReader("no-such-video.avi")
     with pytest.raises(silpose.Error, match="invalid camera"):
         silpose.Camera(0, 48, 50, 50, 32, 24)
+
+
+def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp_path):
+    database = silpose.ViewDatabase.read(cli_database)
+    mesh = silpose.load_mesh(model("cow"))
+    sequence = silpose.SyntheticSequence([mesh], trajectory="walk", frames=16, seed=3)
+    masks = [sequence.generate(i)["mask"] for i in range(16)]
+    plain = silpose.Tracker(database, sequence.camera).process_many(masks)
+
+    smoother = silpose.Smoother(database, sequence.camera, lag=4)
+    assert smoother.lag == 4
+    out = []
+    for index, mask in enumerate(masks):
+        done = smoother.process(mask)
+        assert [r.frame for r in done] == ([] if index < 4 else [index - 4])
+        out += done
+    assert smoother.num_pending == 4 and smoother.num_frames == 16
+    out += smoother.finish()
+    assert [r.frame for r in out] == list(range(16))
+    # A frame the smoothing did not re-pose is reported as tracked.
+    unchanged = sum(a.object_name == b.object_name and a.view_dir.tolist() == b.view_dir.tolist()
+                    for a, b in zip(out, plain))
+    assert unchanged + smoother.num_revised == 16
+    assert all(r.object_name == "cow" for r in out[4:])
+
+    offline = silpose.Smoother(database, sequence.camera, lag=silpose.Smoother.OFFLINE)
+    assert all(offline.process(mask) == [] for mask in masks)
+    assert [r.frame for r in offline.finish()] == list(range(16))
+
+    with pytest.raises(silpose.Error, match="brute force"):
+        silpose.Smoother(database, sequence.camera, silpose.TrackerOptions(brute_force=True))
+    with pytest.raises(silpose.Error, match="lag"):
+        silpose.Smoother(database, sequence.camera, lag=-5)
+
+    # track_video with a lag gives the rows of 'silpose track --lag'.
+    cli = tmp_path / "cli.csv"
+    run_cli("track", "-d", cli_database, video / "video.avi", "--camera", video / "camera.yml",
+            "--segment", "bgsub", "--background", video / "background.png", "-o", cli,
+            "--lag", 3)
+    options = silpose.TrackerOptions(segment="bgsub", background=str(video / "background.png"))
+    results = silpose.track_video(database, video / "video.avi", tmp_path / "py.csv",
+                                  camera=video / "camera.yml", options=options, lag=3)
+    assert [r.frame for r in results] == list(range(12))
+    assert read_poses(tmp_path / "py.csv") == read_poses(cli)
+    with pytest.raises(silpose.Error, match="not both"):
+        silpose.track_video(database, video / "video.avi", options=options, lag=3, smooth=True)

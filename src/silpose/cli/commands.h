@@ -62,6 +62,10 @@ struct TrackJob {
   std::vector<int> bop_object_ids;
   double model_unit_mm = 1.0;
   TrackerOptions tracker;
+  // Smoothing from the particle histories (track/smoother.h): each frame reported `lag` frames
+  // late, or (smooth) every frame at the end.
+  int lag = 0;
+  bool smooth = false;
 };
 
 /// Runs a track job (see track_command.cc). Throws silpose::Error; on a fault while reading the

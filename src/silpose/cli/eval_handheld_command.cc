@@ -37,6 +37,7 @@ struct EvalHandheldArguments {
   uint64_t seed = 1000;
   int skip = 10;
   bool ablation = false;
+  std::vector<std::string> trackers;
   bool quick = false;
   // Which options were given (--quick does not override them).
   bool sequences_given = false, frames_given = false, orbit_frames_given = false,
@@ -95,18 +96,18 @@ std::string Number(double value, const char* format = "%.2f") {
 void PrintSummary(const HandheldExperimentResult& result) {
   std::printf("\nsummary (frames %d and later; 'all' columns: every frame)\n",
               result.options.skip_frames);
-  std::printf("%-10s %-9s %-19s %4s %6s %8s %6s %8s %8s %8s %8s %7s %8s %8s\n", "kind", "masks",
+  std::printf("%-10s %-9s %-19s %4s %6s %8s %6s %8s %8s %8s %8s %7s %8s %8s %5s\n", "kind", "masks",
               "tracker", "seqs", "frames", "object%", "no-est", "rot med", "rot mean", "trans%",
-              "view err", "roll", "all obj%", "all rot");
+              "view err", "roll", "all obj%", "all rot", "twin");
   for (const HandheldSummaryRow& row : result.summary) {
     const HandheldStats& s = row.counted;
-    std::printf("%-10s %-9s %-19s %4d %6d %8.2f %6d %8s %8s %8s %8s %7s %8.2f %8s\n",
-                row.kind.c_str(), MaskQualityName(row.mask_quality),
-                HandheldTrackerName(row.tracker), row.sequences, s.frames, s.RightObjectPercent(),
-                s.no_estimate, Number(s.rotation_median_deg).c_str(),
-                Number(s.rotation_mean_deg).c_str(), Number(s.translation_median_percent).c_str(),
-                Number(s.view_error_mean, "%.4f").c_str(), Number(s.roll_median_deg).c_str(),
-                row.all.RightObjectPercent(), Number(row.all.rotation_median_deg).c_str());
+    std::printf(
+        "%-10s %-9s %-19s %4d %6d %8.2f %6d %8s %8s %8s %8s %7s %8.2f %8s %5d\n", row.kind.c_str(),
+        MaskQualityName(row.mask_quality), HandheldTrackerName(row.tracker), row.sequences,
+        s.frames, s.RightObjectPercent(), s.no_estimate, Number(s.rotation_median_deg).c_str(),
+        Number(s.rotation_mean_deg).c_str(), Number(s.translation_median_percent).c_str(),
+        Number(s.view_error_mean, "%.4f").c_str(), Number(s.roll_median_deg).c_str(),
+        row.all.RightObjectPercent(), Number(row.all.rotation_median_deg).c_str(), s.wrong_twin);
   }
 }
 
@@ -183,6 +184,19 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
   if (arguments.ablation) {
     options.trackers = {HandheldTracker::kFilter, HandheldTracker::kBruteForce,
                         HandheldTracker::kFilterNoRefine, HandheldTracker::kFilterPaperMotion};
+  }
+  if (!arguments.trackers.empty()) {
+    if (arguments.ablation) ThrowError("give --ablation or --trackers, not both");
+    options.trackers.clear();
+    for (const std::string& name : arguments.trackers) {
+      HandheldTracker tracker;
+      if (!ParseHandheldTracker(name, &tracker)) {
+        ThrowError("--trackers: unknown tracker '", name,
+                   "' (filter, brute-force, filter-no-refine, filter-paper-motion, "
+                   "filter-lag-10, filter-smooth)");
+      }
+      options.trackers.push_back(tracker);
+    }
   }
   int views = arguments.views;
   std::vector<std::string> evaluate = arguments.evaluate;
@@ -337,6 +351,12 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       ->capture_default_str();
   command->add_flag("--ablation", arguments->ablation,
                     "Also run the filter without refinement and with the paper's motion model");
+  command
+      ->add_option("--trackers", arguments->trackers,
+                   "Trackers to compare, comma-separated: filter, brute-force, filter-no-refine, "
+                   "filter-paper-motion, filter-lag-10 (track --lag 10), filter-smooth (track "
+                   "--smooth); default filter,brute-force")
+      ->delimiter(',');
   command->add_flag("--quick", arguments->quick,
                     "Small variant for tests: sample models, 150 views, bunny and hand, one "
                     "40-frame hand-held sequence and 30-frame orbits each");

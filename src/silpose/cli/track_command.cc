@@ -2,8 +2,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <map>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <sstream>
 
@@ -17,6 +19,7 @@
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/render/overlay.h"
 #include "silpose/synth/ground_truth.h"
+#include "silpose/track/smoother.h"
 #include "silpose/track/track_report.h"
 #include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
@@ -241,6 +244,12 @@ void WritePlots(const TrackJob& arguments, const TrackReport& report) {
   }
 }
 
+void PrintSmoothing(const TrackJob& arguments, const TrackSmoother& smoother, int frames) {
+  std::printf("smoothing (%s): %d of %d frames re-posed from the particle histories\n",
+              arguments.smooth ? "offline" : ("lag " + std::to_string(arguments.lag)).c_str(),
+              smoother.num_revised(), frames);
+}
+
 void PrintSummary(const TrackJob& arguments, const TrackReport& report, int measured,
                   double total_ms, double decode_ms) {
   const int frames = report.num_frames();
@@ -382,6 +391,20 @@ void RunTrackJob(const TrackJob& arguments) {
         (std::filesystem::path(arguments.input) / "background.png").string();
     std::printf("background subtraction from %s\n", segment.background_image_path.c_str());
   }
+  if (arguments.smooth && arguments.lag > 0) ThrowError("give --smooth or --lag, not both");
+  if (arguments.smooth || arguments.lag > 0) {
+    if (options.brute_force) {
+      ThrowError(arguments.smooth ? "--smooth" : "--lag",
+                 " needs the particle filter's histories: not with --brute-force");
+    }
+    // The filter keeps the history the smoothing reads.
+    int64_t& kept = options.filter.max_history_frames;
+    if (arguments.smooth) {
+      kept = 0;
+    } else if (kept != 0 && kept <= arguments.lag) {
+      kept = arguments.lag + 1;
+    }
+  }
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
   if (!segment.background_image_path.empty()) {
@@ -451,52 +474,91 @@ void RunTrackJob(const TrackJob& arguments) {
   int measured = 0;
   int rows_written = 0;  // POSES.csv rows on disk
   double total_ms = 0.0;
+  std::unique_ptr<TrackSmoother> smoother;
+  if (arguments.smooth || arguments.lag > 0) {
+    smoother = std::make_unique<TrackSmoother>(
+        tracker, arguments.smooth ? TrackSmoother::kOffline : arguments.lag);
+  }
+  // What each frame needs once its result is final (later, with smoothing): its name, number and
+  // (for the overlay) the image; offline the image waits JPEG-compressed.
+  struct Waiting {
+    std::string name;
+    int image_id = -1;
+    int index = 0;
+    cv::Mat image;
+    std::vector<unsigned char> jpeg;
+  };
+  std::deque<Waiting> waiting;
+  const auto emit = [&](TrackedFrame tracked) {
+    Waiting info = std::move(waiting.front());
+    waiting.pop_front();
+    cv::Mat image = info.image;
+    if (!info.jpeg.empty()) image = cv::imdecode(info.jpeg, cv::IMREAD_COLOR);
+    tracked.result.frame_name = info.name;
+    tracked.result.image_id = info.image_id;
+    const int index = info.index;
+    DropNonFinitePose(&tracked.result);
+    const FrameResult& result = tracked.result;
+    total_ms += result.time_ms;
+    measured += tracked.silhouette.ok();
+    outputs.csv->Write(result);
+    ++rows_written;
+    if (outputs.json) outputs.json->Write(result);
+    if (outputs.bop) outputs.bop->Write(result);
+    std::optional<TruthFrame> frame_truth;
+    const auto row =
+        std::lower_bound(truth.begin(), truth.end(), index,
+                         [](const GroundTruthFrame& a, int value) { return a.frame < value; });
+    if (row != truth.end() && row->frame == index) {
+      frame_truth =
+          MakeTruthFrame(database, row->object, row->view_dir_in_object, row->camera_from_object);
+    }
+    report.Add(result, frame_truth);
+    if (!arguments.masks_out.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "%06d.png", index);
+      WriteMask(std::filesystem::path(arguments.masks_out) / name, tracked.segmentation.mask);
+    }
+    if (outputs.overlay) {
+      OverlayOptions overlay;
+      overlay.frame_number = index;
+      PosedModel posed;
+      const PosedModel* model = nullptr;
+      if (result.camera_from_object && result.object >= 0 &&
+          meshes[static_cast<size_t>(result.object)]) {
+        posed.mesh = &*meshes[static_cast<size_t>(result.object)];
+        posed.camera = camera;
+        posed.camera_from_object = *result.camera_from_object;
+        model = &posed;
+      }
+      const std::string label =
+          result.object >= 0 ? result.object_name : std::string("(no estimate)");
+      outputs.overlay->Write(
+          DrawOverlay(image, tracked.segmentation.mask, model, label, result.score, overlay));
+    }
+  };
   try {
     do {
-      TrackedFrame tracked = tracker.Process(frame);
-      tracked.result.frame_name = source->name();
-      tracked.result.image_id = NumericStem(tracked.result.frame_name);
+      Waiting info;
+      info.name = source->name();
+      info.image_id = NumericStem(info.name);
       // Ground truth rows are matched by the image's number when it has one, else by the index.
-      const int index =
-          tracked.result.image_id >= 0 ? tracked.result.image_id : source->frame_index();
-      DropNonFinitePose(&tracked.result);
-      const FrameResult& result = tracked.result;
-      total_ms += result.time_ms;
-      measured += tracked.silhouette.ok();
-      outputs.csv->Write(result);
-      ++rows_written;
-      if (outputs.json) outputs.json->Write(result);
-      if (outputs.bop) outputs.bop->Write(result);
-      std::optional<TruthFrame> frame_truth;
-      const auto row =
-          std::lower_bound(truth.begin(), truth.end(), index,
-                           [](const GroundTruthFrame& a, int value) { return a.frame < value; });
-      if (row != truth.end() && row->frame == index) {
-        frame_truth =
-            MakeTruthFrame(database, row->object, row->view_dir_in_object, row->camera_from_object);
-      }
-      report.Add(result, frame_truth);
-      if (!arguments.masks_out.empty()) {
-        char name[32];
-        std::snprintf(name, sizeof(name), "%06d.png", index);
-        WriteMask(std::filesystem::path(arguments.masks_out) / name, tracked.segmentation.mask);
-      }
+      info.index = info.image_id >= 0 ? info.image_id : source->frame_index();
       if (outputs.overlay) {
-        OverlayOptions overlay;
-        overlay.frame_number = index;
-        PosedModel posed;
-        const PosedModel* model = nullptr;
-        if (result.camera_from_object && result.object >= 0 &&
-            meshes[static_cast<size_t>(result.object)]) {
-          posed.mesh = &*meshes[static_cast<size_t>(result.object)];
-          posed.camera = camera;
-          posed.camera_from_object = *result.camera_from_object;
-          model = &posed;
+        if (!smoother) {
+          info.image = frame;
+        } else if (arguments.smooth) {
+          if (!cv::imencode(".jpg", frame, info.jpeg, {cv::IMWRITE_JPEG_QUALITY, 90}))
+            ThrowError(info.name, ": could not keep the frame for the overlay");
+        } else {
+          info.image = frame.clone();
         }
-        const std::string label =
-            result.object >= 0 ? result.object_name : std::string("(no estimate)");
-        outputs.overlay->Write(
-            DrawOverlay(frame, tracked.segmentation.mask, model, label, result.score, overlay));
+      }
+      waiting.push_back(std::move(info));
+      if (smoother) {
+        for (TrackedFrame& done : smoother->Process(frame)) emit(std::move(done));
+      } else {
+        emit(tracker.Process(frame));
       }
       progress.Advance();
       if (arguments.max_frames > 0 && tracker.num_frames() >= arguments.max_frames) break;
@@ -507,10 +569,22 @@ void RunTrackJob(const TrackJob& arguments) {
               .count();
       if (!more) break;
     } while (true);
+    if (smoother) {
+      for (TrackedFrame& done : smoother->Finish()) emit(std::move(done));
+      PrintSmoothing(arguments, *smoother, tracker.num_frames());
+    }
   } catch (const Error& fault) {
-    // Keep what was tracked before the fault: the rows are on disk already; finish the overlay
-    // video and the plots, then report the fault.
+    // Keep what was tracked before the fault: the rows are on disk already (those the smoother
+    // still holds are written now, smoothed by what was seen); finish the overlay video and the
+    // plots, then report the fault.
     progress.Finish();
+    try {
+      if (smoother) {
+        for (TrackedFrame& done : smoother->Finish()) emit(std::move(done));
+      }
+    } catch (const Error&) {
+      // The output that failed: the rows written so far stay.
+    }
     try {
       outputs.Close();
       WritePlots(arguments, report);
@@ -610,6 +684,14 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--seed", filter.seed, "Seed of the particle filter")
       ->capture_default_str()
       ->check(SeedNumber());
+  command
+      ->add_option("--lag", arguments->lag,
+                   "Report each frame N frames late, corrected by what the particle filter saw "
+                   "after it (live smoothing from the particle histories; docs/tracking.md)")
+      ->check(CLI::Range(0, 100000));
+  command->add_flag("--smooth", arguments->smooth,
+                    "Report every frame at the end of the input from the history of the final "
+                    "best particle (offline smoothing; docs/tracking.md)");
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
   command

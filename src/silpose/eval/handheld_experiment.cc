@@ -16,6 +16,7 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/pose/pose_error.h"
 #include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/smoother.h"
 #include "silpose/util/error.h"
 #include "silpose/util/threads.h"
 
@@ -101,10 +102,13 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
 
   const size_t num_trackers = options.trackers.size();
   std::vector<std::unique_ptr<Tracker>> trackers;
+  std::vector<std::unique_ptr<TrackSmoother>> smoothers;
   runs->resize(num_trackers);
   for (size_t i = 0; i < num_trackers; ++i) {
     trackers.push_back(std::make_unique<Tracker>(
         database, sequence.camera(), HandheldTrackerOptions(options.trackers[i], task.seed)));
+    const std::optional<int> lag = HandheldTrackerLag(options.trackers[i]);
+    smoothers.push_back(lag ? std::make_unique<TrackSmoother>(*trackers.back(), *lag) : nullptr);
     HandheldRun& run = (*runs)[i];
     run.model = task.model;
     run.model_name = database.models[static_cast<size_t>(task.model)].name;
@@ -117,56 +121,95 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
     run.frames.resize(static_cast<size_t>(sequence.num_frames()));
   }
 
+  const ModelViews& model = database.models[static_cast<size_t>(task.model)];
+  const ViewEquivalence equivalence(model.symmetry);
+  // The truth of every frame, for results that come back later (smoothing).
+  struct Truth {
+    Rigid3 camera_from_object;
+    Eigen::Vector3d view_dir = Eigen::Vector3d::UnitZ();
+    double roll_deg = 0.0;
+  };
+  std::vector<Truth> truths(static_cast<size_t>(sequence.num_frames()));
+  const auto record = [&](size_t i, const TrackedFrame& tracked) {
+    const FrameResult& result = tracked.result;
+    const size_t k = static_cast<size_t>(result.frame);
+    const Truth& truth = truths[k];
+    HandheldFrame& f = (*runs)[i].frames[k];
+    f.time_ms = result.time_ms;
+    f.object = result.object;
+    f.right_object = result.object == task.model;
+    f.rotation_error_deg = f.translation_error_percent = f.view_error = f.roll_error_deg = kNaN;
+    f.rotation_error_symmetric_deg = f.view_error_symmetric = kNaN;
+    f.wrong_twin = false;
+    const std::span<const Rigid3> symmetric =
+        f.right_object ? std::span<const Rigid3>(symmetries) : std::span<const Rigid3>();
+    if (result.view_dir_in_object) {
+      const Eigen::Vector3d estimated = result.view_dir_in_object->normalized();
+      f.has_view = true;
+      f.view_error = ViewDirectionError(estimated, truth.view_dir);
+      f.view_error_symmetric = ViewErrorModuloSymmetry(estimated, truth.view_dir, symmetric);
+      if (f.right_object && std::isfinite(result.roll_deg)) {
+        const double carried = TransportRoll(estimated, result.roll_deg, truth.view_dir);
+        f.roll_error_deg = std::abs(WrapDegrees(carried - truth.roll_deg));
+      }
+      if (f.right_object) {
+        const double to_truth = equivalence.AngleDeg(estimated, truth.view_dir);
+        for (const MirrorSymmetry& mirror : model.symmetry.mirrors) {
+          const Eigen::Vector3d n = mirror.normal.normalized();
+          const Eigen::Vector3d twin =
+              (2.0 * truth.view_dir.dot(n) * n - truth.view_dir).normalized();
+          if (equivalence.AngleDeg(twin, truth.view_dir) > kTwinMinSeparationDeg &&
+              equivalence.AngleDeg(estimated, twin) < to_truth) {
+            f.wrong_twin = true;
+          }
+        }
+      }
+    }
+    if (f.right_object && result.camera_from_object) {
+      const Rigid3& pose = truth.camera_from_object;
+      const double true_distance = (pose.rotation * centre + pose.translation).norm();
+      f.has_pose = true;
+      f.rotation_error_deg = RotationErrorDeg(result.camera_from_object->rotation, pose.rotation);
+      f.rotation_error_symmetric_deg = RotationErrorModuloSymmetryDeg(
+          result.camera_from_object->rotation, pose.rotation, symmetric);
+      f.translation_error_percent =
+          100.0 * (result.camera_from_object->translation - pose.translation).norm() /
+          true_distance;
+    }
+  };
+
   SyntheticFrame frame;
   Eigen::Matrix3d previous_rotation = Eigen::Matrix3d::Identity();
   for (int k = 0; k < sequence.num_frames(); ++k) {
     sequence.Generate(k, &frame);
     const TrajectoryFrame& path = sequence.trajectory()[static_cast<size_t>(k)];
-    const Rigid3& truth = frame.truth.camera_from_object;
-    const double true_distance = (truth.rotation * centre + truth.translation).norm();
-    const double speed = k == 0 ? 0.0 : RotationErrorDeg(previous_rotation, truth.rotation);
-    previous_rotation = truth.rotation;
+    Truth& truth = truths[static_cast<size_t>(k)];
+    truth.camera_from_object = frame.truth.camera_from_object;
+    truth.view_dir = path.view_dir_in_object.normalized();
+    truth.roll_deg = path.roll_deg;
+    const Eigen::Matrix3d& rotation = truth.camera_from_object.rotation;
+    const double speed = k == 0 ? 0.0 : RotationErrorDeg(previous_rotation, rotation);
+    previous_rotation = rotation;
     const double off_axis =
         std::acos(std::clamp(path.centre_ray_in_camera.normalized().z(), -1.0, 1.0)) * 180.0 /
         std::numbers::pi;
     for (size_t i = 0; i < num_trackers; ++i) {
-      const TrackedFrame tracked = trackers[i]->Process(frame.mask);
-      const FrameResult& result = tracked.result;
       HandheldFrame& f = (*runs)[i].frames[static_cast<size_t>(k)];
       f.frame = k;
       f.distance_radii = path.distance_in_radii;
       f.off_axis_deg = off_axis;
       f.speed_deg_per_frame = speed;
       f.cut = path.cut;
-      f.time_ms = result.time_ms;
-      f.object = result.object;
-      f.right_object = result.object == task.model;
-      f.rotation_error_deg = f.translation_error_percent = f.view_error = f.roll_error_deg = kNaN;
-      f.rotation_error_symmetric_deg = f.view_error_symmetric = kNaN;
-      const std::span<const Rigid3> symmetric =
-          f.right_object ? std::span<const Rigid3>(symmetries) : std::span<const Rigid3>();
-      if (result.view_dir_in_object) {
-        f.has_view = true;
-        f.view_error = ViewDirectionError(*result.view_dir_in_object, path.view_dir_in_object);
-        f.view_error_symmetric =
-            ViewErrorModuloSymmetry(*result.view_dir_in_object, path.view_dir_in_object, symmetric);
-        if (f.right_object && std::isfinite(result.roll_deg)) {
-          const double carried =
-              TransportRoll(*result.view_dir_in_object, result.roll_deg, path.view_dir_in_object);
-          f.roll_error_deg = std::abs(WrapDegrees(carried - path.roll_deg));
-        }
-      }
-      if (f.right_object && result.camera_from_object) {
-        f.has_pose = true;
-        f.rotation_error_deg =
-            RotationErrorDeg(result.camera_from_object->rotation, truth.rotation);
-        f.rotation_error_symmetric_deg = RotationErrorModuloSymmetryDeg(
-            result.camera_from_object->rotation, truth.rotation, symmetric);
-        f.translation_error_percent =
-            100.0 * (result.camera_from_object->translation - truth.translation).norm() /
-            true_distance;
+      if (smoothers[i]) {
+        for (const TrackedFrame& done : smoothers[i]->Process(frame.mask)) record(i, done);
+      } else {
+        record(i, trackers[i]->Process(frame.mask));
       }
     }
+  }
+  for (size_t i = 0; i < num_trackers; ++i) {
+    if (!smoothers[i]) continue;
+    for (const TrackedFrame& done : smoothers[i]->Finish()) record(i, done);
   }
 }
 
@@ -215,8 +258,30 @@ const char* HandheldTrackerName(HandheldTracker tracker) {
       return "filter-no-refine";
     case HandheldTracker::kFilterPaperMotion:
       return "filter-paper-motion";
+    case HandheldTracker::kFilterLag10:
+      return "filter-lag-10";
+    case HandheldTracker::kFilterSmooth:
+      return "filter-smooth";
   }
   return "?";
+}
+
+bool ParseHandheldTracker(const std::string& name, HandheldTracker* tracker) {
+  for (HandheldTracker t : {HandheldTracker::kFilter, HandheldTracker::kBruteForce,
+                            HandheldTracker::kFilterNoRefine, HandheldTracker::kFilterPaperMotion,
+                            HandheldTracker::kFilterLag10, HandheldTracker::kFilterSmooth}) {
+    if (name == HandheldTrackerName(t)) {
+      *tracker = t;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::optional<int> HandheldTrackerLag(HandheldTracker tracker) {
+  if (tracker == HandheldTracker::kFilterLag10) return 10;
+  if (tracker == HandheldTracker::kFilterSmooth) return TrackSmoother::kOffline;
+  return std::nullopt;
 }
 
 TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed) {
@@ -234,6 +299,11 @@ TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed) {
     case HandheldTracker::kFilterPaperMotion:
       options.filter.motion_model = MotionModel::kNeighbour;
       options.filter.data_driven_proposal = false;
+      break;
+    case HandheldTracker::kFilterLag10:
+      break;
+    case HandheldTracker::kFilterSmooth:
+      options.filter.max_history_frames = 0;
       break;
   }
   return options;
@@ -284,6 +354,7 @@ HandheldStats ComputeHandheldStats(const std::vector<const HandheldFrame*>& fram
     stats.right_object += f->right_object;
     stats.no_estimate += f->object < 0;
     stats.no_pose += f->right_object && !f->has_pose;
+    stats.wrong_twin += f->wrong_twin;
     if (f->has_pose) {
       rotation.push_back(f->rotation_error_deg);
       translation.push_back(f->translation_error_percent);
@@ -584,13 +655,13 @@ const char* HandheldSummaryHeader() {
          "no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,"
          "translation_median_percent,view_error_mean,roll_median_deg,all_frames,"
          "all_right_object_percent,all_rotation_median_deg,rotation_median_symmetric_deg,"
-         "view_error_symmetric_mean";
+         "view_error_symmetric_mean,wrong_twin_frames";
 }
 
 const char* HandheldFramesHeader() {
   return "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
          "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
-         "translation_error_percent,view_error,roll_error_deg,time_ms";
+         "translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin";
 }
 
 const char* HandheldBinsHeader() {
@@ -611,8 +682,8 @@ void WriteHandheldSummary(const std::filesystem::path& path,
         << Cell(s.rotation_p90_deg) << ',' << Cell(s.translation_median_percent) << ','
         << Cell(s.view_error_mean) << ',' << Cell(s.roll_median_deg) << ',' << row.all.frames << ','
         << Cell(row.all.RightObjectPercent()) << ',' << Cell(row.all.rotation_median_deg) << ','
-        << Cell(s.rotation_median_symmetric_deg) << ',' << Cell(s.view_error_symmetric_mean)
-        << '\n';
+        << Cell(s.rotation_median_symmetric_deg) << ',' << Cell(s.view_error_symmetric_mean) << ','
+        << s.wrong_twin << '\n';
   }
   CloseCsv(csv, path);
 }
@@ -632,7 +703,8 @@ void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperi
           << (f.object >= 0 ? database.models[static_cast<size_t>(f.object)].name : "") << ','
           << (f.right_object ? 1 : 0) << ',' << (f.has_pose ? 1 : 0) << ','
           << Cell(f.rotation_error_deg) << ',' << Cell(f.translation_error_percent) << ','
-          << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms) << '\n';
+          << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms) << ','
+          << (f.wrong_twin ? 1 : 0) << '\n';
     }
   }
   CloseCsv(csv, path);

@@ -53,6 +53,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -77,10 +78,21 @@ enum class HandheldTracker {
   /// The filter with the paper's motion model (MotionModel::kNeighbour) and no data-driven
   /// proposal.
   kFilterPaperMotion,
+  /// The filter, each frame reported 10 frames late from the particle histories (TrackSmoother,
+  /// track/smoother.h; `silpose track --lag 10`).
+  kFilterLag10,
+  /// The filter, every frame reported at the end from the final best particle's history
+  /// (TrackSmoother::kOffline; `silpose track --smooth`).
+  kFilterSmooth,
 };
 
-/// "filter", "brute-force", "filter-no-refine", "filter-paper-motion".
+/// "filter", "brute-force", "filter-no-refine", "filter-paper-motion", "filter-lag-10",
+/// "filter-smooth".
 const char* HandheldTrackerName(HandheldTracker tracker);
+/// Inverse of HandheldTrackerName; false if `name` is none of them.
+bool ParseHandheldTracker(const std::string& name, HandheldTracker* tracker);
+/// The smoothing lag of a tracker (frames, or TrackSmoother::kOffline); nullopt without smoothing.
+std::optional<int> HandheldTrackerLag(HandheldTracker tracker);
 /// The tracker's options (the defaults of TrackerOptions changed as described above), with the
 /// filter seeded by `seed`.
 TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed);
@@ -113,6 +125,9 @@ struct HandheldExperimentOptions {
   bool Check(std::string* error = nullptr) const;
 };
 
+/// A mirror twin closer than this to the true view (degrees) is not told apart from it.
+inline constexpr double kTwinMinSeparationDeg = 20.0;
+
 /// One frame of one sequence under one tracker.
 struct HandheldFrame {
   int frame = 0;
@@ -138,6 +153,11 @@ struct HandheldFrame {
   /// to them for a model without rotations; the view error only for the right object).
   double rotation_error_symmetric_deg = 0.0;
   double view_error_symmetric = 0.0;
+  /// On the wrong mirror twin: the right object with a mirror plane, an estimated view nearer
+  /// (modulo the rotational symmetry) to a mirror twin of the true view (the view with the same
+  /// outline up to perspective, geometry/symmetry.h) than to the true view, that twin more than
+  /// kTwinMinSeparationDeg from the true view.
+  bool wrong_twin = false;
   /// Tracker::Process time, ms (inflated when threads share the cores).
   double time_ms = 0.0;
 };
@@ -181,6 +201,8 @@ struct HandheldStats {
   /// rotation_median_deg and view_error_mean modulo the model's symmetry.
   double rotation_median_symmetric_deg = 0.0;
   double view_error_symmetric_mean = 0.0;
+  /// Frames on the wrong mirror twin (HandheldFrame::wrong_twin).
+  int wrong_twin = 0;
 
   double RightObjectPercent() const { return frames > 0 ? 100.0 * right_object / frames : 0.0; }
 };
@@ -272,12 +294,13 @@ const char* HandheldBinsHeader();
 /// kind,mask_quality,tracker,sequences,frames,right_object_percent,no_estimate_frames,
 /// no_pose_frames,rotation_median_deg,rotation_mean_deg,rotation_p90_deg,
 /// translation_median_percent,view_error_mean,roll_median_deg,all_frames,
-/// all_right_object_percent,all_rotation_median_deg (empty cells for NaN).
+/// all_right_object_percent,all_rotation_median_deg,rotation_median_symmetric_deg,
+/// view_error_symmetric_mean,wrong_twin_frames (empty cells for NaN).
 void WriteHandheldSummary(const std::filesystem::path& path,
                           const HandheldExperimentResult& result);
 /// frames.csv: every frame of every run: model,kind,sequence,seed,mask_quality,tracker,frame,
 /// distance_radii,off_axis_deg,speed_deg_per_frame,cut,estimated_object,right_object,has_pose,
-/// rotation_error_deg,translation_error_percent,view_error,roll_error_deg,time_ms.
+/// rotation_error_deg,translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin.
 void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperimentResult& result,
                          const ViewDatabase& database);
 /// bins.csv: axis,bin,mask_quality,tracker,frames,right_object_percent,rotation_median_deg,

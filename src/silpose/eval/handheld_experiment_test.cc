@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/track/smoother.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -285,6 +286,48 @@ TEST_F(HandheldExperimentTest, SameSeedsGiveTheSameResultOnAnyThreadCount) {
   EXPECT_EQ(one.Seeds().size(), 3u);
 }
 
+TEST_F(HandheldExperimentTest, SmoothedTrackersKeepTheFiltersObjectsAndCountTwinFrames) {
+  // The cow has a mirror plane: its twin frames are counted; smoothing never changes the object.
+  HandheldExperimentOptions options;
+  options.models = {"cow"};
+  options.sequences_per_model = 1;
+  options.frames = 40;
+  options.orbit_distances_radii = {};
+  options.mask_qualities = {MaskQuality::kThreshold};
+  options.trackers = {HandheldTracker::kFilter, HandheldTracker::kFilterLag10,
+                      HandheldTracker::kFilterSmooth};
+  options.num_threads = 1;
+  const HandheldExperimentResult result = RunHandheldExperiment(*database_, *meshes_, options);
+  ASSERT_EQ(result.runs.size(), 3u);
+  const HandheldRun& live = result.runs[0];
+  for (size_t r = 1; r < 3; ++r) {
+    const HandheldRun& smoothed = result.runs[r];
+    EXPECT_EQ(smoothed.tracker, options.trackers[r]);
+    ASSERT_EQ(smoothed.frames.size(), live.frames.size());
+    for (size_t k = 0; k < live.frames.size(); ++k) {
+      EXPECT_EQ(smoothed.frames[k].frame, static_cast<int>(k));
+      EXPECT_EQ(smoothed.frames[k].object, live.frames[k].object) << "frame " << k;
+      EXPECT_EQ(smoothed.frames[k].has_view, live.frames[k].has_view);
+      // A twin frame is a right-object frame with a view.
+      if (smoothed.frames[k].wrong_twin) {
+        EXPECT_TRUE(smoothed.frames[k].right_object);
+      }
+    }
+  }
+  for (const HandheldSummaryRow& row : result.summary) {
+    EXPECT_LE(row.counted.wrong_twin, row.counted.right_object);
+  }
+  HandheldTracker parsed;
+  for (HandheldTracker tracker : options.trackers) {
+    ASSERT_TRUE(ParseHandheldTracker(HandheldTrackerName(tracker), &parsed));
+    EXPECT_EQ(parsed, tracker);
+  }
+  EXPECT_FALSE(ParseHandheldTracker("filter-lag-11", &parsed));
+  EXPECT_EQ(HandheldTrackerLag(HandheldTracker::kFilterLag10), 10);
+  EXPECT_EQ(HandheldTrackerLag(HandheldTracker::kFilterSmooth), TrackSmoother::kOffline);
+  EXPECT_FALSE(HandheldTrackerLag(HandheldTracker::kFilter).has_value());
+}
+
 TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   const std::filesystem::path folder =
       std::filesystem::temp_directory_path() / ("silpose_handheld_" + std::to_string(::getpid()));
@@ -297,12 +340,12 @@ TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   const std::vector<std::string> summary = ReadLines(folder / "summary.csv");
   ASSERT_EQ(summary.size(), 1u + result_->summary.size());
   EXPECT_EQ(summary[0], HandheldSummaryHeader());
-  for (const std::string& line : summary) EXPECT_EQ(CountCells(line), 19u) << line;
+  for (const std::string& line : summary) EXPECT_EQ(CountCells(line), 20u) << line;
   const std::vector<std::string> frames = ReadLines(folder / "frames.csv");
   size_t num_frames = 0;
   for (const HandheldRun& run : result_->runs) num_frames += run.frames.size();
   ASSERT_EQ(frames.size(), 1u + num_frames);
-  for (const std::string& line : frames) EXPECT_EQ(CountCells(line), 19u) << line;
+  for (const std::string& line : frames) EXPECT_EQ(CountCells(line), 20u) << line;
   const std::vector<std::string> bins = ReadLines(folder / "bins.csv");
   ASSERT_EQ(bins.size(), 1u + result_->bins.size());
   for (const std::string& line : bins) EXPECT_EQ(CountCells(line), 9u) << line;

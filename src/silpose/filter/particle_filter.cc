@@ -9,6 +9,7 @@
 #include <numbers>
 #include <numeric>
 #include <sstream>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "silpose/geometry/view_frame.h"
@@ -329,7 +330,8 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   // History: one node per particle for this frame.
   for (Particle& p : particles_) {
     p.history = std::make_shared<const HistoryNode>(
-        PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known, p.score},
+        PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known, p.score,
+                  frame != nullptr},
         std::move(p.history));
   }
   const Particle& chosen = particles_[best];
@@ -965,6 +967,132 @@ std::vector<PoseState> ParticleFilter::History(const Particle& particle) {
 std::vector<PoseState> ParticleFilter::BestHistory() const {
   Particle holder;
   holder.history = best_history_;
+  return History(holder);
+}
+
+std::optional<PoseState> ParticleFilter::SmoothedState(int64_t frame, int object) const {
+  // Each particle's ancestor in `frame`, and the weight per (object, view) of them.
+  struct Group {
+    int object = -1;
+    int view = -1;
+    double mass = 0.0;
+    const HistoryNode* heaviest = nullptr;
+    double heaviest_mass = 0.0;
+  };
+  std::unordered_map<const HistoryNode*, double> ancestors;
+  for (const Particle& p : particles_) {
+    if (object >= 0 && p.object != object) continue;
+    const HistoryNode* node = p.history.get();
+    while (node != nullptr && node->state().frame > frame) node = node->parent();
+    if (node == nullptr || node->state().frame != frame || node->state().object < 0 ||
+        node->state().view < 0)
+      continue;
+    ancestors[node] += p.weight;
+  }
+  if (ancestors.empty()) return std::nullopt;
+  std::vector<Group> groups;
+  std::unordered_map<int64_t, size_t> group_of;
+  for (const auto& [node, mass] : ancestors) {
+    const PoseState& state = node->state();
+    const int64_t key = static_cast<int64_t>(state.object) * num_views_ + state.view;
+    auto [it, added] = group_of.emplace(key, groups.size());
+    if (added) groups.push_back({state.object, state.view});
+    Group& group = groups[it->second];
+    group.mass += mass;
+    if (group.heaviest == nullptr || mass > group.heaviest_mass ||
+        (mass == group.heaviest_mass && state.score > group.heaviest->state().score)) {
+      group.heaviest = node;
+      group.heaviest_mass = mass;
+    }
+  }
+  // The object with the most ancestor weight (as the filter's estimate picks the most probable
+  // object first), then the mode around each of its groups; the heaviest mode's centre wins (then
+  // its own mass).
+  if (object < 0) {
+    std::vector<double> object_mass(static_cast<size_t>(num_objects_), 0.0);
+    for (const Group& group : groups) object_mass[static_cast<size_t>(group.object)] += group.mass;
+    object = static_cast<int>(std::max_element(object_mass.begin(), object_mass.end()) -
+                              object_mass.begin());
+  }
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
+  const double radius = options_.mode_radius_deg;
+  size_t best = groups.size();
+  double best_mode = -1.0;
+  for (size_t i = 0; i < groups.size(); ++i) {
+    if (groups[i].object != object) continue;
+    const Eigen::Vector3d& centre = sphere_.directions[static_cast<size_t>(groups[i].view)];
+    double mode = 0.0;
+    for (const Group& other : groups) {
+      if (other.object == object &&
+          same.AngleDeg(sphere_.directions[static_cast<size_t>(other.view)], centre) <= radius)
+        mode += other.mass;
+    }
+    if (mode > best_mode || (mode == best_mode && groups[i].mass > groups[best].mass)) {
+      best = i;
+      best_mode = mode;
+    }
+  }
+  return groups[best].heaviest->state();
+}
+
+std::vector<PoseState> ParticleFilter::MostLikelyHistory(int64_t from_frame, int object) const {
+  // Every node from `from_frame` on, reachable from the particles, and each frame's best score.
+  std::unordered_map<const HistoryNode*, double> path_log_likelihood;
+  std::vector<const HistoryNode*> nodes;
+  std::unordered_map<int64_t, float> best_score;
+  auto visit = [&](const HistoryNode* node) {
+    for (; node != nullptr && node->state().frame >= from_frame; node = node->parent()) {
+      if (!path_log_likelihood.emplace(node, 0.0).second) break;
+      nodes.push_back(node);
+      if (node->state().measured) {
+        auto [it, added] = best_score.emplace(node->state().frame, node->state().score);
+        if (!added) it->second = std::max(it->second, node->state().score);
+      }
+    }
+  };
+  const bool best_counts =
+      best_history_ != nullptr && (object < 0 || best_history_->state().object == object);
+  if (best_counts) visit(best_history_.get());
+  for (const Particle& p : particles_) {
+    if (object < 0 || p.object == object) visit(p.history.get());
+  }
+  // Path sums, parents (earlier frames) first.
+  std::sort(nodes.begin(), nodes.end(), [](const HistoryNode* a, const HistoryNode* b) {
+    return a->state().frame < b->state().frame;
+  });
+  const double lambda = options_.likelihood_sharpness;
+  const double floor = options_.likelihood_floor;
+  for (const HistoryNode* node : nodes) {
+    double sum = 0.0;
+    if (node->parent() != nullptr) {
+      const auto parent = path_log_likelihood.find(node->parent());
+      if (parent != path_log_likelihood.end()) sum = parent->second;
+    }
+    const PoseState& state = node->state();
+    if (state.measured) {
+      const double gap =
+          static_cast<double>(state.score) - static_cast<double>(best_score.at(state.frame));
+      sum += std::log(std::exp(lambda * gap) + floor);
+    }
+    path_log_likelihood[node] = sum;
+  }
+  const HistoryNode* chosen = best_counts ? best_history_.get() : nullptr;
+  double chosen_sum = chosen != nullptr && path_log_likelihood.count(chosen) != 0
+                          ? path_log_likelihood.at(chosen)
+                          : -std::numeric_limits<double>::infinity();
+  for (const Particle& p : particles_) {
+    if (object >= 0 && p.object != object) continue;
+    const auto it = path_log_likelihood.find(p.history.get());
+    if (it != path_log_likelihood.end() && it->second > chosen_sum) {
+      chosen = it->first;
+      chosen_sum = it->second;
+    }
+  }
+  Particle holder;
+  for (const Particle& p : particles_) {
+    if (p.history.get() == chosen) holder.history = p.history;
+  }
+  if (holder.history == nullptr && best_counts) holder.history = best_history_;
   return History(holder);
 }
 

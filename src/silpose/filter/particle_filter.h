@@ -177,6 +177,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <span>
 #include <string>
@@ -349,6 +350,8 @@ struct PoseState {
   /// Correlation at the particle's roll in its last measurement (this frame's if measured), in
   /// [-1, 1]; 0 before any.
   float score = 0.0f;
+  /// The frame was measured (Step), not only predicted.
+  bool measured = false;
 };
 
 /// An immutable node of the history tree: a state and the node of the frame before (null at the
@@ -474,6 +477,27 @@ class ParticleFilter {
   /// The history of the particle the last estimate reported, one state per frame, oldest first
   /// (from frame 0, or as far as max_history_frames keeps). Empty before the first frame.
   std::vector<PoseState> BestHistory() const;
+  /// Of the current particles' histories (those of `object`'s particles if object >= 0), the one
+  /// that explains the measured frames from `from_frame` on best: the highest sum over those
+  /// frames of the log-likelihood the filter weighs with, log(exp(lambda (s - s_best)) + f)
+  /// (likelihood_sharpness, likelihood_floor), s_best the best score among these histories in
+  /// that frame. The history the last estimate reported wins ties. Oldest first, as BestHistory;
+  /// empty if there is none. This is the most likely of the sampled trajectories (the motion
+  /// prior is the same for all: they were drawn from it): unlike the last estimate's, it does not
+  /// hang on the last frame alone. A particle's history never leaves its object (resampling and
+  /// proposals are per object), so no history follows a change of object: give `object` to
+  /// smooth the views of one object. Costs one visit of every history node from `from_frame` on.
+  std::vector<PoseState> MostLikelyHistory(int64_t from_frame = 0, int object = -1) const;
+  /// The fixed-lag smoothing estimate of an earlier frame: the particles' ancestors in `frame`
+  /// (the states their histories hold for it), weighted by the particles' current weights, form
+  /// the smoothed posterior of that frame given every frame since; of them, in `object` (if >= 0:
+  /// only that object's particles count; else the object with the most weight), the state of the
+  /// heaviest view in the heaviest mode (views within mode_radius_deg modulo rotational
+  /// symmetry). As histories never leave their object, give the object the frame was reported as
+  /// when the object may have changed since. nullopt if no history reaches `frame` (not yet
+  /// processed, or cut by max_history_frames). Costs one walk of each particle's history back to
+  /// `frame`.
+  std::optional<PoseState> SmoothedState(int64_t frame, int object = -1) const;
   /// The history of one particle, oldest first.
   static std::vector<PoseState> History(const Particle& particle);
   /// Number of distinct history nodes reachable from the particles and the best history

@@ -455,6 +455,91 @@ TEST_F(ParticleFilterTest, BestHistoryHasOneStatePerFrameEndingWithTheEstimate) 
   }
 }
 
+TEST_F(ParticleFilterTest, MostLikelyHistoryExplainsTheFramesBestOfAllParticleHistories) {
+  const std::vector<TruePose> path = SmoothPath(40, 1, 40);
+  ParticleFilterOptions options;
+  options.max_history_frames = 0;
+  ParticleFilter filter(Sphere(), *spectra_, options);
+  EXPECT_TRUE(filter.MostLikelyHistory().empty());
+  for (size_t t = 0; t < path.size(); ++t) {
+    if (t == 7) {
+      filter.Predict();
+    } else {
+      filter.Step(Signature(path[t], t % 5 == 3 ? Degradation::kOccluder : Degradation::kNone));
+    }
+  }
+  // The path log-likelihood of a history from frame `from` on, the best score per frame taken
+  // over every particle's history and the last estimate's (computed here independently of the
+  // filter).
+  std::vector<std::vector<PoseState>> histories = {filter.BestHistory()};
+  for (const Particle& p : filter.particles()) histories.push_back(ParticleFilter::History(p));
+  const auto path_log_likelihood = [&](const std::vector<PoseState>& history, int64_t from) {
+    double sum = 0.0;
+    for (const PoseState& state : history) {
+      if (state.frame < from || !state.measured) continue;
+      float best = -1.0f;
+      for (const std::vector<PoseState>& other : histories)
+        best = std::max(best, other[static_cast<size_t>(state.frame)].score);
+      sum += std::log(std::exp(options.likelihood_sharpness * (state.score - best)) +
+                      options.likelihood_floor);
+    }
+    return sum;
+  };
+  for (int64_t from : {int64_t{0}, int64_t{30}}) {
+    const std::vector<PoseState> chosen = filter.MostLikelyHistory(from);
+    ASSERT_EQ(chosen.size(), path.size());
+    EXPECT_FALSE(chosen[7].measured);
+    EXPECT_TRUE(chosen[8].measured);
+    const double chosen_sum = path_log_likelihood(chosen, from);
+    EXPECT_LE(chosen_sum, 0.0);
+    for (const std::vector<PoseState>& other : histories)
+      EXPECT_GE(chosen_sum, path_log_likelihood(other, from) - 1e-9);
+    // It names the filmed object at the end.
+    EXPECT_EQ(chosen.back().object, path.back().object);
+  }
+  // A history never leaves its object: the most likely one of another object stays on it.
+  const std::vector<PoseState> other = filter.MostLikelyHistory(0, 2);
+  ASSERT_EQ(other.size(), path.size());
+  for (const PoseState& state : other) EXPECT_EQ(state.object, 2);
+}
+
+TEST_F(ParticleFilterTest, SmoothedStateIsTheHeaviestAncestorOfTheFrame) {
+  const std::vector<TruePose> path = SmoothPath(41, 0, 30);
+  ParticleFilter filter(Sphere(), *spectra_);
+  EXPECT_FALSE(filter.SmoothedState(0).has_value());
+  for (const TruePose& pose : path) filter.Step(Signature(pose));
+  EXPECT_FALSE(filter.SmoothedState(30).has_value());  // not processed yet
+  for (int64_t frame : {int64_t{29}, int64_t{20}, int64_t{12}}) {
+    const std::optional<PoseState> state = filter.SmoothedState(frame);
+    ASSERT_TRUE(state.has_value());
+    EXPECT_EQ(state->frame, frame);
+    // Independently: the particles' ancestors in that frame, weighted by today's weights.
+    std::vector<double> object_mass(3, 0.0);
+    bool is_ancestor = false;
+    for (const Particle& p : filter.particles()) {
+      const PoseState& ancestor = ParticleFilter::History(p)[static_cast<size_t>(frame)];
+      object_mass[static_cast<size_t>(ancestor.object)] += p.weight;
+      is_ancestor |= ancestor.object == state->object && ancestor.view == state->view &&
+                     ancestor.roll_deg == state->roll_deg && ancestor.score == state->score;
+    }
+    EXPECT_TRUE(is_ancestor);
+    EXPECT_EQ(state->object,
+              std::max_element(object_mass.begin(), object_mass.end()) - object_mass.begin());
+    // The bunny, seen clearly: the right object, and a view near the true one.
+    EXPECT_EQ(state->object, 0);
+    const double angle_deg =
+        std::acos(std::clamp(Sphere().directions[static_cast<size_t>(state->view)].dot(
+                                 path[static_cast<size_t>(frame)].view_dir),
+                             -1.0, 1.0)) /
+        kDegToRad;
+    EXPECT_LT(angle_deg, 15.0) << "frame " << frame;
+    // Asked for another object: that object's ancestors only.
+    const std::optional<PoseState> other = filter.SmoothedState(frame, 2);
+    ASSERT_TRUE(other.has_value());
+    EXPECT_EQ(other->object, 2);
+  }
+}
+
 TEST(ParticleFilterHistory, LiveNodesStayBoundedOverManyFrames) {
   // A tiny database (2 models, 60 views, 96 px, 128 directions) and a few of its own views as a
   // cheap measurement, 20 000 frames.

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "silpose/geometry/view_frame.h"
@@ -89,7 +90,7 @@ Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
 
 Tracker::~Tracker() = default;
 
-void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
+void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
   FrameResult& result = tracked->result;
   SilhouettePose& pose = *tracked->pose;
   const FrameOutline outline(tracked->segmentation.mask);
@@ -122,7 +123,7 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked) {
   result.roll_deg = roll_deg;
   tracked->refinement = std::move(refined);
   // The refined orientation feeds the filter's velocity.
-  if (filter_) filter_->ObserveRotation(on_axis);
+  if (filter_ && feed_filter) filter_->ObserveRotation(on_axis);
 }
 
 bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int view, int shell,
@@ -247,6 +248,144 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   }
 }
 
+void Tracker::EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* tracked,
+                           const std::function<double()>& lap) {
+  FrameResult& result = tracked->result;
+  if ((tracked->silhouette.flags & kSilhouetteTouchesBorder) != 0) {
+    // The silhouette runs out of the image: its centre and size are not the object's.
+    result.status += "-cut-by-border-no-pose";
+    return;
+  }
+  try {
+    PoseFromSilhouetteOptions pose_options = options_.pose;
+    pose_options.shell = shell;
+    lap();
+    tracked->pose =
+        EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
+                                   tracked->silhouette.signature, camera_, pose_options);
+    result.camera_from_object = tracked->pose->camera_from_object;
+    result.time_pose_ms = lap();
+    const TriangleMesh& mesh = database_.models[static_cast<size_t>(result.object)].mesh;
+    if (options_.refine && !mesh.triangles.empty()) {
+      Refine(mesh, tracked, feed_filter);
+      result.time_refine_ms = lap();
+    }
+  } catch (const Error&) {
+    // A problem of this frame only (e.g. a centroid outside the lens model's valid range): the
+    // frame keeps its object and view, without a pose.
+    tracked->pose.reset();
+    result.camera_from_object.reset();
+    result.status += "-no-pose";
+  }
+}
+
+void Tracker::Canonicalise(FrameResult* result, bool runner_up) const {
+  if (!options_.canonical_poses) return;
+  if (result->object >= 0 && result->view_dir_in_object) {
+    const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result->object)].symmetry;
+    if (symmetry.HasRotations()) ToCanonicalForm(symmetry, result);
+  }
+  if (runner_up && result->runner_up_object >= 0 && result->runner_up_view_dir) {
+    const ObjectSymmetry& symmetry =
+        database_.models[static_cast<size_t>(result->runner_up_object)].symmetry;
+    if (symmetry.HasRotations()) {
+      FrameResult other;
+      other.view_dir_in_object = result->runner_up_view_dir;
+      other.roll_deg = result->runner_up_roll_deg;
+      ToCanonicalForm(symmetry, &other);
+      result->runner_up_view_dir = other.view_dir_in_object;
+      result->runner_up_roll_deg = other.roll_deg;
+    }
+  }
+}
+
+TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) {
+  const int num_models = static_cast<int>(database_.models.size());
+  if (state.object < 0 || state.object >= num_models || state.view < 0 ||
+      state.view >= database_.sphere.num_views()) {
+    ThrowError("Revise: state (object ", state.object, ", view ", state.view,
+               ") is not in the database");
+  }
+  if (!filter_ || !frame.estimate || !frame.estimate->measured || !frame.silhouette.ok() ||
+      !state.roll_known || frame.estimate->object < 0 || frame.estimate->view < 0) {
+    return frame;
+  }
+  const FilterEstimate& estimate = *frame.estimate;
+  const auto& directions = database_.sphere.directions;
+  if (state.object == estimate.object &&
+      equivalence_[static_cast<size_t>(state.object)].AngleDeg(
+          directions[static_cast<size_t>(state.view)],
+          directions[static_cast<size_t>(estimate.view)]) <= options_.filter.mode_radius_deg) {
+    return frame;
+  }
+  if (frame.segmentation.mask.empty())
+    ThrowError("Revise: frame ", frame.result.frame, " has no segmentation mask");
+
+  TrackedFrame revised = frame;
+  const FrameResult& before = frame.result;
+  FrameResult& result = revised.result;
+  result.object = state.object;
+  result.object_name = database_.models[static_cast<size_t>(state.object)].name;
+  result.view_dir_in_object = directions[static_cast<size_t>(state.view)];
+  result.roll_deg = state.roll_deg;
+  result.score = static_cast<double>(state.score);
+  result.probability = static_cast<size_t>(state.object) < estimate.object_probability.size()
+                           ? estimate.object_probability[static_cast<size_t>(state.object)]
+                           : std::nan("");
+  revised.pose.reset();
+  revised.refinement.reset();
+  result.camera_from_object.reset();
+  result.iou = std::nan("");
+  for (const char* suffix : {"-cut-by-border-no-pose", "-no-pose"}) {
+    if (result.status.ends_with(suffix)) {
+      result.status.resize(result.status.size() - std::strlen(suffix));
+      break;
+    }
+  }
+  if (options_.estimate_pose) {
+    const double apparent_radius = revised.on_axis
+                                       ? revised.on_axis->apparent_radius
+                                       : revised.silhouette.signature.mean_radius_px /
+                                             std::sqrt(camera_.focal_x_px * camera_.focal_y_px);
+    const int shell = database_.ChooseShell(state.object, state.view, apparent_radius);
+    EstimatePose(state.view, shell, /*feed_filter=*/false, &revised, [] { return 0.0; });
+    // The times stay those of the frame's processing.
+    result.time_pose_ms = before.time_pose_ms;
+    result.time_refine_ms = before.time_refine_ms;
+  }
+
+  // The fit and the confidence at the new pose; the posterior features stay the frame's.
+  double fit_iou = std::nan(""), fit_rms_px = std::nan("");
+  MeasureFit(&revised, &fit_iou, &fit_rms_px);
+  if (std::isfinite(fit_iou)) result.iou = fit_iou;
+  ConfidenceFeatures features =
+      frame.confidence_features ? *frame.confidence_features : ConfidenceFeatures{};
+  features.score = result.score;
+  features.object_probability = std::isfinite(result.probability) ? result.probability : 0.0;
+  const double mean_radius = revised.silhouette.signature.mean_radius_px;
+  features.has_fit = std::isfinite(fit_iou) && std::isfinite(fit_rms_px) && mean_radius > 0.0;
+  features.iou = features.has_fit ? fit_iou : 0.0;
+  features.outline_rms = features.has_fit ? fit_rms_px / mean_radius : 0.0;
+  // The frame's outline favoured the former hypothesis by the twin gap (if it had one): the new
+  // one is at best as good.
+  if (std::isfinite(features.twin_score_gap))
+    features.twin_score_gap = -std::abs(features.twin_score_gap);
+  revised.confidence_features = features;
+  result.confidence = state_->options().model.Evaluate(features);
+  if (before.state == TrackState::kTracking || before.state == TrackState::kAmbiguous) {
+    result.state = result.confidence >= state_->options().min_confidence ? TrackState::kTracking
+                                                                         : TrackState::kAmbiguous;
+  }
+  // The former hypothesis is the runner-up (already in canonical form).
+  result.runner_up_object = before.object;
+  result.runner_up_name = before.object_name;
+  result.runner_up_mass = std::nan("");
+  result.runner_up_view_dir = before.view_dir_in_object;
+  result.runner_up_roll_deg = before.roll_deg;
+  Canonicalise(&result, /*runner_up=*/false);
+  return revised;
+}
+
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
   if (frame.empty()) ThrowError("frame ", frame_, " is empty");
   if (frame.cols != camera_.width_px || frame.rows != camera_.height_px) {
@@ -339,49 +478,11 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   if (result.object >= 0 && view >= 0) {
     result.object_name = database_.models[static_cast<size_t>(result.object)].name;
     result.view_dir_in_object = database_.sphere.directions[static_cast<size_t>(view)];
-    const bool cut_off = (tracked.silhouette.flags & kSilhouetteTouchesBorder) != 0;
-    if (options_.estimate_pose && usable && roll_known && cut_off) {
-      // The silhouette runs out of the image: its centre and size are not the object's.
-      result.status += "-cut-by-border-no-pose";
-    } else if (options_.estimate_pose && usable && roll_known) {
-      try {
-        PoseFromSilhouetteOptions pose_options = options_.pose;
-        pose_options.shell = shell;
-        lap();
-        tracked.pose =
-            EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
-                                       tracked.silhouette.signature, camera_, pose_options);
-        result.camera_from_object = tracked.pose->camera_from_object;
-        result.time_pose_ms = lap();
-        const TriangleMesh& mesh = database_.models[static_cast<size_t>(result.object)].mesh;
-        if (options_.refine && !mesh.triangles.empty()) {
-          Refine(mesh, &tracked);
-          result.time_refine_ms = lap();
-        }
-      } catch (const Error&) {
-        // A problem of this frame only (e.g. a centroid outside the lens model's valid range):
-        // the frame keeps its object and view, without a pose.
-        result.status += "-no-pose";
-      }
-    }
+    if (options_.estimate_pose && usable && roll_known)
+      EstimatePose(view, shell, /*feed_filter=*/true, &tracked, lap);
   }
   Assess(&tracked, usable, radii, view, shell);
-  if (options_.canonical_poses && result.object >= 0 && result.view_dir_in_object) {
-    const ObjectSymmetry& symmetry = database_.models[static_cast<size_t>(result.object)].symmetry;
-    if (symmetry.HasRotations()) ToCanonicalForm(symmetry, &result);
-  }
-  if (options_.canonical_poses && result.runner_up_object >= 0 && result.runner_up_view_dir) {
-    const ObjectSymmetry& symmetry =
-        database_.models[static_cast<size_t>(result.runner_up_object)].symmetry;
-    if (symmetry.HasRotations()) {
-      FrameResult runner_up;
-      runner_up.view_dir_in_object = result.runner_up_view_dir;
-      runner_up.roll_deg = result.runner_up_roll_deg;
-      ToCanonicalForm(symmetry, &runner_up);
-      result.runner_up_view_dir = runner_up.view_dir_in_object;
-      result.runner_up_roll_deg = runner_up.roll_deg;
-    }
-  }
+  Canonicalise(&result, /*runner_up=*/true);
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   ++frame_;
   return tracked;

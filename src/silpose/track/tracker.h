@@ -18,6 +18,7 @@
 // size are not the object's) or the pose cannot be computed for it ("measured-no-pose", e.g. a
 // centroid outside the valid range of the lens distortion model).
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -138,9 +139,32 @@ class Tracker {
   /// The views' spectra the tracker matches with (made on first use, kept; shareable with a
   /// ViewMatcher of your own).
   const ViewSpectra& spectra() const { return *spectra_; }
+  /// The particle filter (null in brute-force mode): its histories are what TrackSmoother
+  /// (track/smoother.h) corrects earlier frames with.
+  const ParticleFilter* filter() const { return filter_.get(); }
+
+  /// An earlier frame of this stream (as Process returned it, with its segmentation mask)
+  /// re-posed as the hypothesis `state` (object, database view, roll), as a smoother decides with
+  /// hindsight. Returned unchanged when `state` is the frame's own hypothesis (the same object, and
+  /// a view within the filter's mode radius modulo the object's rotational symmetry), has no roll
+  /// yet, or the frame had no measured silhouette or no filter estimate. Otherwise the result
+  /// takes the state's object, view, roll and score, and the object's probability in that frame;
+  /// the 6-DOF pose, its refinement, the fit (iou) and the confidence are computed again; the
+  /// state stays what it was, except that tracking and ambiguous are decided again by the
+  /// confidence threshold; and the runner-up becomes the frame's former hypothesis (its mass
+  /// NaN). The filter, the state rules' memory and the stream position are not touched. Throws
+  /// silpose::Error for a state outside the database, or a frame without its mask.
+  TrackedFrame Revise(const TrackedFrame& frame, const PoseState& state);
 
  private:
-  void Refine(const TriangleMesh& mesh, TrackedFrame* tracked);
+  /// `feed_filter`: the refined rotation updates the filter's velocity (Process, not Revise).
+  void Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter);
+  /// The pose (and refinement) of tracked->result's object as database view `view` in distance
+  /// shell `shell` at the result's roll; status suffixes as Process documents.
+  void EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* tracked,
+                    const std::function<double()>& lap);
+  /// Canonical forms of the result's pose and runner-up (TrackerOptions::canonical_poses).
+  void Canonicalise(FrameResult* result, bool runner_up) const;
 
   const ViewDatabase& database_;
   PinholeCamera camera_;

@@ -1,0 +1,144 @@
+#include "silpose/track/smoother.h"
+
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <utility>
+
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+constexpr int kMaxLag = 100000;
+
+// The state of frame `frame` in `history` (oldest first), or null if the history does not reach
+// it.
+const PoseState* StateAt(const std::vector<PoseState>& history, int64_t frame) {
+  if (history.empty()) return nullptr;
+  const int64_t index = frame - history.front().frame;
+  if (index < 0 || index >= static_cast<int64_t>(history.size())) return nullptr;
+  const PoseState& state = history[static_cast<size_t>(index)];
+  return state.frame == frame ? &state : nullptr;
+}
+
+}  // namespace
+
+TrackSmoother::TrackSmoother(Tracker& tracker, int lag) : tracker_(tracker), lag_(lag) {
+  if (tracker.filter() == nullptr)
+    ThrowError("smoothing needs the particle filter's histories (not brute force)");
+  if (tracker.num_frames() != 0)
+    ThrowError("smoothing must start with the stream (the tracker has processed ",
+               tracker.num_frames(), " frames)");
+  if (lag < kOffline || lag > kMaxLag)
+    ThrowError("the smoothing lag must be in [0, ", kMaxLag, "] frames (or offline), got ", lag);
+  const int64_t kept = tracker.options().filter.max_history_frames;
+  if (lag == kOffline && kept != 0) {
+    ThrowError("offline smoothing needs the whole history (max_history_frames 0), not ", kept,
+               " frames");
+  }
+  if (lag != kOffline && kept != 0 && kept <= lag) {
+    ThrowError("a smoothing lag of ", lag, " frames needs max_history_frames 0 or above ", lag,
+               ", not ", kept);
+  }
+}
+
+TrackSmoother::Held TrackSmoother::Hold(TrackedFrame tracked) const {
+  Held held;
+  const cv::Mat& mask = tracked.segmentation.mask;
+  held.size = mask.size();
+  if (!mask.empty() && tracked.segmentation.ok()) {
+    held.box = cv::boundingRect(mask);
+    if (held.box.area() > 0) {
+      if (lag_ == kOffline) {
+        if (!cv::imencode(".png", mask(held.box), held.png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+          ThrowError("frame ", tracked.result.frame, ": could not compress its mask");
+      } else {
+        held.crop = mask(held.box).clone();
+      }
+    }
+  }
+  tracked.segmentation.mask.release();
+  if (lag_ == kOffline) {
+    // What a revision does not need: the outline points and the radii.
+    std::vector<Eigen::Vector2d>().swap(tracked.silhouette.outline_px);
+    std::vector<float>().swap(tracked.silhouette.signature.radii);
+    if (tracked.on_axis) std::vector<float>().swap(tracked.on_axis->signature.radii);
+    if (tracked.estimate) tracked.estimate->object_probability.shrink_to_fit();
+  }
+  held.tracked = std::move(tracked);
+  return held;
+}
+
+TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
+  TrackedFrame tracked = std::move(held.tracked);
+  // The mask as the frame had it (zero outside the object's box).
+  if (!held.size.empty()) {
+    cv::Mat mask = cv::Mat::zeros(held.size, CV_8UC1);
+    if (!held.crop.empty()) {
+      held.crop.copyTo(mask(held.box));
+    } else if (!held.png.empty()) {
+      const cv::Mat crop = cv::imdecode(held.png, cv::IMREAD_UNCHANGED);
+      if (crop.size() != held.box.size() || crop.type() != CV_8UC1)
+        ThrowError("frame ", tracked.result.frame, ": could not restore its mask");
+      crop.copyTo(mask(held.box));
+    }
+    tracked.segmentation.mask = mask;
+  }
+  // Only frames with a filter estimate of an object are smoothed, within that object.
+  if (lag_ == 0 || !tracked.estimate || !tracked.estimate->measured || tracked.estimate->object < 0)
+    return tracked;
+  const std::optional<PoseState> state = smoothed(tracked.result.frame, tracked.estimate->object);
+  if (!state || state->object < 0 || state->view < 0) return tracked;
+  TrackedFrame revised = tracker_.Revise(tracked, *state);
+  if (revised.result.object != tracked.result.object ||
+      revised.result.view_dir_in_object != tracked.result.view_dir_in_object) {
+    ++num_revised_;
+  }
+  return revised;
+}
+
+std::vector<TrackedFrame> TrackSmoother::Process(const cv::Mat& frame) {
+  pending_.push_back(Hold(tracker_.Process(frame)));
+  std::vector<TrackedFrame> done;
+  if (lag_ == kOffline || static_cast<int>(pending_.size()) <= lag_) return done;
+  done.push_back(Release(std::move(pending_.front()), [this](int64_t f, int object) {
+    return tracker_.filter()->SmoothedState(f, object);
+  }));
+  pending_.pop_front();
+  return done;
+}
+
+std::vector<TrackedFrame> TrackSmoother::Finish() {
+  std::vector<TrackedFrame> done;
+  done.reserve(pending_.size());
+  // Offline: per object, the history that explains the whole stream best; with a lag, the last
+  // frames each smoothed by what the stream gave after it.
+  std::map<int, std::vector<PoseState>> histories;
+  const int64_t first = pending_.empty() ? 0 : pending_.front().tracked.result.frame;
+  const auto offline = [this, &histories, first](int64_t f,
+                                                 int object) -> std::optional<PoseState> {
+    auto it = histories.find(object);
+    if (it == histories.end()) {
+      it = histories.emplace(object, tracker_.filter()->MostLikelyHistory(first, object)).first;
+    }
+    const PoseState* state = StateAt(it->second, f);
+    return state != nullptr ? std::optional<PoseState>(*state) : std::nullopt;
+  };
+  const auto lagged = [this](int64_t f, int object) {
+    return tracker_.filter()->SmoothedState(f, object);
+  };
+  while (!pending_.empty()) {
+    Held held = std::move(pending_.front());
+    pending_.pop_front();
+    if (lag_ == kOffline) {
+      done.push_back(Release(std::move(held), offline));
+    } else {
+      done.push_back(Release(std::move(held), lagged));
+    }
+  }
+  return done;
+}
+
+}  // namespace silpose

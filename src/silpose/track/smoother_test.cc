@@ -1,0 +1,200 @@
+#include "silpose/track/smoother.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "silpose/database/database_builder.h"
+#include "silpose/synth/synthetic_sequence.h"
+#include "silpose/util/error.h"
+
+namespace silpose {
+namespace {
+
+const std::filesystem::path kModels(SILPOSE_SAMPLE_MODELS_DIR);
+
+// The cow (one mirror plane) and the hand, 400 views: small enough to build in a second.
+const ViewDatabase& Database() {
+  static const ViewDatabase* database = [] {
+    DatabaseBuildOptions options;
+    options.parameters.view_sphere.num_views = 400;
+    options.parameters.render.resolution_px = 192;
+    return new ViewDatabase(
+        BuildViewDatabase({kModels / "cow.obj", kModels / "hand.obj"}, options));
+  }();
+  return *database;
+}
+
+// A 40-frame random walk around the cow at 3-4 degrees per frame.
+const SyntheticSequence& Sequence() {
+  static const SyntheticSequence* sequence = [] {
+    SequenceOptions options;
+    options.trajectory.kind = TrajectoryKind::kWalk;
+    options.trajectory.num_frames = 40;
+    options.trajectory.walk.seed = 11;
+    options.trajectory.walk.speed_sigma_deg = 3.0;
+    return new SyntheticSequence({LoadMesh(kModels / "cow.obj")}, options);
+  }();
+  return *sequence;
+}
+
+// A frame's result, printed exactly.
+std::string Describe(const FrameResult& result) {
+  std::ostringstream text;
+  text.precision(17);
+  text << result.frame << ' ' << result.object << ' ' << result.roll_deg << ' ' << result.score
+       << ' ' << result.status << ' ' << result.confidence << ' ' << TrackStateName(result.state);
+  if (result.view_dir_in_object) text << ' ' << result.view_dir_in_object->transpose();
+  if (result.camera_from_object) text << ' ' << result.camera_from_object->translation.transpose();
+  return text.str();
+}
+
+std::vector<TrackedFrame> TrackPlain(const TrackerOptions& options) {
+  Tracker tracker(Database(), Sequence().camera(), options);
+  std::vector<TrackedFrame> frames;
+  for (int f = 0; f < Sequence().num_frames(); ++f)
+    frames.push_back(tracker.Process(Sequence().Generate(f).mask));
+  return frames;
+}
+
+TEST(TrackSmoother, LagZeroReportsEveryFrameAsTracked) {
+  const std::vector<TrackedFrame> plain = TrackPlain(TrackerOptions{});
+  Tracker tracker(Database(), Sequence().camera(), TrackerOptions{});
+  TrackSmoother smoother(tracker, 0);
+  for (int f = 0; f < Sequence().num_frames(); ++f) {
+    const std::vector<TrackedFrame> done = smoother.Process(Sequence().Generate(f).mask);
+    ASSERT_EQ(done.size(), 1u) << "frame " << f;
+    // The chosen particle's state at its own frame is the estimate: nothing to correct.
+    EXPECT_EQ(Describe(done[0].result), Describe(plain[static_cast<size_t>(f)].result));
+  }
+  EXPECT_TRUE(smoother.Finish().empty());
+  EXPECT_EQ(smoother.num_revised(), 0);
+}
+
+TEST(TrackSmoother, ALagReportsEachFrameThatManyFramesLateWithItsMask) {
+  const std::vector<TrackedFrame> plain = TrackPlain(TrackerOptions{});
+  Tracker tracker(Database(), Sequence().camera(), TrackerOptions{});
+  constexpr int kLag = 5;
+  TrackSmoother smoother(tracker, kLag);
+  std::vector<TrackedFrame> reported;
+  for (int f = 0; f < Sequence().num_frames(); ++f) {
+    std::vector<TrackedFrame> done = smoother.Process(Sequence().Generate(f).mask);
+    ASSERT_EQ(done.size(), f < kLag ? 0u : 1u) << "frame " << f;
+    if (!done.empty()) {
+      EXPECT_EQ(done[0].result.frame, f - kLag);
+    }
+    for (TrackedFrame& d : done) reported.push_back(std::move(d));
+  }
+  EXPECT_EQ(smoother.num_pending(), kLag);
+  for (TrackedFrame& d : smoother.Finish()) reported.push_back(std::move(d));
+  EXPECT_EQ(smoother.num_pending(), 0);
+  ASSERT_EQ(reported.size(), static_cast<size_t>(Sequence().num_frames()));
+  int unchanged = 0;
+  for (size_t f = 0; f < reported.size(); ++f) {
+    EXPECT_EQ(reported[f].result.frame, static_cast<int>(f));
+    // The mask comes back exactly as segmented.
+    const cv::Mat& mask = plain[f].segmentation.mask;
+    ASSERT_EQ(reported[f].segmentation.mask.size(), mask.size());
+    EXPECT_EQ(cv::countNonZero(reported[f].segmentation.mask != mask), 0) << "frame " << f;
+    unchanged += Describe(reported[f].result) == Describe(plain[f].result);
+  }
+  // The frames not revised are reported exactly as tracked.
+  EXPECT_EQ(unchanged + smoother.num_revised(), Sequence().num_frames());
+}
+
+TEST(TrackSmoother, OfflineReportsEveryFrameAtTheEnd) {
+  const std::vector<TrackedFrame> plain = TrackPlain(TrackerOptions{});
+  TrackerOptions options;
+  options.filter.max_history_frames = 0;
+  Tracker tracker(Database(), Sequence().camera(), options);
+  TrackSmoother smoother(tracker, TrackSmoother::kOffline);
+  for (int f = 0; f < Sequence().num_frames(); ++f)
+    EXPECT_TRUE(smoother.Process(Sequence().Generate(f).mask).empty());
+  EXPECT_EQ(smoother.num_pending(), Sequence().num_frames());
+  const std::vector<TrackedFrame> reported = smoother.Finish();
+  ASSERT_EQ(reported.size(), static_cast<size_t>(Sequence().num_frames()));
+  const std::vector<PoseState> history = tracker.filter()->MostLikelyHistory();
+  ASSERT_EQ(history.size(), reported.size());
+  for (size_t f = 0; f < reported.size(); ++f) {
+    const FrameResult& result = reported[f].result;
+    EXPECT_EQ(result.frame, static_cast<int>(f));
+    EXPECT_EQ(cv::countNonZero(reported[f].segmentation.mask != plain[f].segmentation.mask), 0);
+    // Every frame names the object of the most likely history.
+    EXPECT_EQ(result.object, history[f].object) << "frame " << f;
+    EXPECT_TRUE(result.camera_from_object.has_value()) << "frame " << f;
+  }
+  // The cow is tracked: the last frame's object is the cow and the smoothing keeps it throughout.
+  EXPECT_EQ(history.back().object, 0);
+}
+
+TEST(TrackSmoother, RefusesWhatCannotBeSmoothed) {
+  TrackerOptions brute;
+  brute.brute_force = true;
+  Tracker brute_tracker(Database(), Sequence().camera(), brute);
+  EXPECT_THROW(TrackSmoother(brute_tracker, 3), Error);
+
+  Tracker tracker(Database(), Sequence().camera(), TrackerOptions{});  // 100 frames of history
+  EXPECT_THROW(TrackSmoother(tracker, TrackSmoother::kOffline), Error);
+  EXPECT_THROW(TrackSmoother(tracker, 100), Error);
+  EXPECT_THROW(TrackSmoother(tracker, -2), Error);
+  EXPECT_NO_THROW(TrackSmoother(tracker, 99));
+  tracker.Process(Sequence().Generate(0).mask);
+  EXPECT_THROW(TrackSmoother(tracker, 5), Error);
+}
+
+TEST(TrackerRevise, ReposesAFrameAsAnotherHypothesisAndKeepsItsOwn) {
+  Tracker tracker(Database(), Sequence().camera(), TrackerOptions{});
+  TrackedFrame tracked;
+  for (int f = 0; f < 15; ++f) tracked = tracker.Process(Sequence().Generate(f).mask);
+  ASSERT_TRUE(tracked.estimate.has_value());
+  ASSERT_EQ(tracked.result.object, 0);
+  ASSERT_TRUE(tracked.result.camera_from_object.has_value());
+  const FilterEstimate& estimate = *tracked.estimate;
+
+  // Its own hypothesis: unchanged.
+  PoseState own;
+  own.object = estimate.object;
+  own.view = estimate.view;
+  own.roll_deg = estimate.roll_deg;
+  own.roll_known = true;
+  EXPECT_EQ(Describe(tracker.Revise(tracked, own).result), Describe(tracked.result));
+
+  // A view at right angles to it and to its mirror twin (in the cow's mirror plane): re-posed
+  // there, with the former hypothesis as the runner-up.
+  const Eigen::Vector3d view_dir = Database().sphere.directions[static_cast<size_t>(own.view)];
+  ASSERT_EQ(Database().models[0].symmetry.mirrors.size(), 1u);
+  const Eigen::Vector3d normal = Database().models[0].symmetry.mirrors[0].normal.normalized();
+  PoseState other = own;
+  other.view = Database().sphere.NearestView(view_dir.cross(normal).normalized());
+  other.score = 0.5f;
+  const TrackedFrame revised = tracker.Revise(tracked, other);
+  const FrameResult& result = revised.result;
+  EXPECT_EQ(result.object, 0);
+  ASSERT_TRUE(result.view_dir_in_object.has_value());
+  ASSERT_TRUE(tracked.result.view_dir_in_object.has_value());
+  EXPECT_LT(std::abs(result.view_dir_in_object->dot(*tracked.result.view_dir_in_object)), 0.3);
+  EXPECT_DOUBLE_EQ(result.score, 0.5);
+  EXPECT_EQ(result.runner_up_object, tracked.result.object);
+  ASSERT_TRUE(result.runner_up_view_dir.has_value());
+  EXPECT_EQ(*result.runner_up_view_dir, *tracked.result.view_dir_in_object);
+  EXPECT_TRUE(std::isnan(result.runner_up_mass));
+  ASSERT_TRUE(result.camera_from_object.has_value());
+  // That view explains the frame worse: lower fit, lower confidence.
+  EXPECT_LT(result.iou, tracked.result.iou);
+  EXPECT_LT(result.confidence, tracked.result.confidence);
+  // Nothing of the stream changed: the next frame is the 16th.
+  EXPECT_EQ(tracker.num_frames(), 15);
+
+  // Refused: a state outside the database, a frame without its mask.
+  PoseState outside = other;
+  outside.view = Database().sphere.num_views();
+  EXPECT_THROW(tracker.Revise(tracked, outside), Error);
+  TrackedFrame no_mask = tracked;
+  no_mask.segmentation.mask.release();
+  EXPECT_THROW(tracker.Revise(no_mask, other), Error);
+}
+
+}  // namespace
+}  // namespace silpose
