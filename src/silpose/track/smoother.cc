@@ -1,5 +1,6 @@
 #include "silpose/track/smoother.h"
 
+#include <algorithm>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -12,6 +13,8 @@ namespace silpose {
 namespace {
 
 constexpr int kMaxLag = 100000;
+// The most a flip check allows for the object's turn in one frame, degrees.
+constexpr double kMaxFlipMotionDeg = 30.0;
 
 // The state of frame `frame` in `history` (oldest first), or null if the history does not reach
 // it.
@@ -33,6 +36,8 @@ TrackSmoother::TrackSmoother(Tracker& tracker, int lag) : tracker_(tracker), lag
                tracker.num_frames(), " frames)");
   if (lag < kOffline || lag > kMaxLag)
     ThrowError("the smoothing lag must be in [0, ", kMaxLag, "] frames (or offline), got ", lag);
+  for (const ModelViews& model : tracker.database().models)
+    equivalence_.emplace_back(model.symmetry);
   const int64_t kept = tracker.options().filter.max_history_frames;
   if (lag == kOffline && kept != 0) {
     ThrowError("offline smoothing needs the whole history (max_history_frames 0), not ", kept,
@@ -44,8 +49,51 @@ TrackSmoother::TrackSmoother(Tracker& tracker, int lag) : tracker_(tracker), lag
   }
 }
 
-TrackSmoother::Held TrackSmoother::Hold(TrackedFrame tracked) const {
+bool TrackSmoother::IsMirrorFlip(const ViewDatabase& database, const ViewEquivalence& same,
+                                 int object, int before, int after, double radius_deg,
+                                 double motion_deg) {
+  const int num_views = database.sphere.num_views();
+  if (object < 0 || object >= static_cast<int>(database.models.size()) || before < 0 || after < 0 ||
+      before >= num_views || after >= num_views)
+    return false;
+  const ObjectSymmetry& symmetry = database.models[static_cast<size_t>(object)].symmetry;
+  const Eigen::Vector3d& d = database.sphere.directions[static_cast<size_t>(after)];
+  const Eigen::Vector3d& b = database.sphere.directions[static_cast<size_t>(before)];
+  if (same.AngleDeg(d, b) <= radius_deg) return false;
+  for (const MirrorSymmetry& mirror : symmetry.mirrors) {
+    // The view whose outline is that of `before` (geometry/symmetry.h): -M before.
+    const Eigen::Vector3d n = mirror.normal.normalized();
+    const Eigen::Vector3d twin = (2.0 * b.dot(n) * n - b).normalized();
+    if (same.AngleDeg(d, twin) <= radius_deg + std::max(motion_deg, 0.0)) return true;
+  }
+  return false;
+}
+
+bool TrackSmoother::FlipsBack(const TrackedFrame& tracked) const {
+  const auto twin_better = [](const TrackedFrame& frame) {
+    return frame.mirror_twin && frame.mirror_twin->view >= 0 &&
+           frame.mirror_twin->score > frame.mirror_twin->reported_score;
+  };
+  if (!twin_better(tracked)) return false;
+  for (const Held& later : pending_) {
+    if (later.flip) return true;
+    if (!twin_better(later.tracked)) return false;
+  }
+  return false;
+}
+
+TrackSmoother::Held TrackSmoother::Hold(TrackedFrame tracked) {
   Held held;
+  if (tracked.estimate && tracked.estimate->measured) {
+    const int object = tracked.estimate->object;
+    held.flip = object >= 0 && object == previous_object_ &&
+                IsMirrorFlip(tracker_.database(), equivalence_[static_cast<size_t>(object)], object,
+                             previous_view_, tracked.estimate->view,
+                             tracker_.options().filter.mode_radius_deg, previous_speed_deg_);
+    previous_object_ = tracked.estimate->object;
+    previous_view_ = tracked.estimate->view;
+    previous_speed_deg_ = std::min(tracked.estimate->speed_deg, kMaxFlipMotionDeg);
+  }
   const cv::Mat& mask = tracked.segmentation.mask;
   held.size = mask.size();
   if (!mask.empty() && tracked.segmentation.ok()) {
@@ -90,8 +138,22 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
   if (lag_ == 0 || !tracked.estimate || !tracked.estimate->measured || tracked.estimate->object < 0)
     return tracked;
   const std::optional<PoseState> state = smoothed(tracked.result.frame, tracked.estimate->object);
-  if (!state || state->object < 0 || state->view < 0) return tracked;
-  TrackedFrame revised = tracker_.Revise(tracked, *state);
+  TrackedFrame revised =
+      state && state->object >= 0 && state->view >= 0 ? tracker_.Revise(tracked, *state) : tracked;
+  const bool changed = revised.result.object != tracked.result.object ||
+                       revised.result.view_dir_in_object != tracked.result.view_dir_in_object;
+  if (!changed && FlipsBack(tracked)) {
+    // The filter left this view for its mirror twin later, and the twin fitted better here.
+    PoseState twin;
+    twin.frame = tracked.result.frame;
+    twin.object = tracked.estimate->object;
+    twin.view = tracked.mirror_twin->view;
+    twin.roll_deg = tracked.mirror_twin->roll_deg;
+    twin.roll_known = true;
+    twin.score = tracked.mirror_twin->score;
+    twin.measured = true;
+    revised = tracker_.Revise(tracked, twin);
+  }
   if (revised.result.object != tracked.result.object ||
       revised.result.view_dir_in_object != tracked.result.view_dir_in_object) {
     ++num_revised_;
@@ -103,10 +165,11 @@ std::vector<TrackedFrame> TrackSmoother::Process(const cv::Mat& frame) {
   pending_.push_back(Hold(tracker_.Process(frame)));
   std::vector<TrackedFrame> done;
   if (lag_ == kOffline || static_cast<int>(pending_.size()) <= lag_) return done;
-  done.push_back(Release(std::move(pending_.front()), [this](int64_t f, int object) {
+  Held held = std::move(pending_.front());
+  pending_.pop_front();
+  done.push_back(Release(std::move(held), [this](int64_t f, int object) {
     return tracker_.filter()->SmoothedState(f, object);
   }));
-  pending_.pop_front();
   return done;
 }
 

@@ -16,6 +16,14 @@
 //    filter's log-likelihoods over every frame). The ancestors' vote would hang on the last
 //    frame's posterior, which a few bad masks at the end can move; the sum over the whole stream
 //    does not.
+// Mirror twins. A proposal that moves the filter from a wrong mirror twin to the right one
+// continues the history of the particles nearest to it, which lie on the wrong twin: no history
+// holds the right view for the frames before. So a second rule: when the filter's estimate jumps
+// to the mirror twin of the previous frame's view (a flip), the frames before it in which the twin
+// of the reported view explained the outline better than the reported view itself (the tracker
+// scores both, TrackedFrame::mirror_twin), back to the first that did not, are reported as that
+// twin: within the lag, or back to the start offline.
+//
 // Smoothing corrects the view and roll, never the object: a particle's history never leaves its
 // object, so histories cannot tell when the object in front of the camera changed; each frame is
 // smoothed among the histories of the object it was reported as. A frame whose smoothed state is
@@ -63,6 +71,13 @@ class TrackSmoother {
   /// same stream).
   std::vector<TrackedFrame> Finish();
 
+  /// Whether database view `after` of `object` is a mirror flip of view `before`, one frame
+  /// later: farther than `radius_deg` from it, and within `radius_deg` + `motion_deg` (what the
+  /// object may have turned in the frame) of one of its mirror twins (-M before for each mirror
+  /// plane of the object); angles modulo the object's rotational symmetry (`same`).
+  static bool IsMirrorFlip(const ViewDatabase& database, const ViewEquivalence& same, int object,
+                           int before, int after, double radius_deg, double motion_deg = 0.0);
+
   int lag() const { return lag_; }
   /// Frames held now (not yet returned).
   int num_pending() const { return static_cast<int>(pending_.size()); }
@@ -77,17 +92,27 @@ class TrackSmoother {
     cv::Size size;
     cv::Mat crop;
     std::vector<unsigned char> png;
+    /// The estimate jumped to the mirror twin of the previous frame's view.
+    bool flip = false;
   };
   /// The smoothed state of (frame, object the frame was reported as), if any.
   using StateLookup = std::function<std::optional<PoseState>(int64_t, int)>;
-  Held Hold(TrackedFrame tracked) const;
+  Held Hold(TrackedFrame tracked);
   /// `held` as final, re-posed if `smoothed` says so.
   TrackedFrame Release(Held held, const StateLookup& smoothed);
+
+  /// The frame's mirror twin explained it better than its reported view, and a flip follows in
+  /// pending_ after only such frames.
+  bool FlipsBack(const TrackedFrame& tracked) const;
 
   Tracker& tracker_;
   int lag_ = 0;
   std::deque<Held> pending_;
   int num_revised_ = 0;
+  std::vector<ViewEquivalence> equivalence_;
+  int previous_object_ = -1;
+  int previous_view_ = -1;
+  double previous_speed_deg_ = 0.0;
 };
 
 }  // namespace silpose

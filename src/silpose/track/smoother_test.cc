@@ -144,6 +144,34 @@ TEST(TrackSmoother, RefusesWhatCannotBeSmoothed) {
   EXPECT_THROW(TrackSmoother(tracker, 5), Error);
 }
 
+TEST(TrackSmootherMirrorFlip, IsAJumpToTheMirrorTwinOfThePreviousView) {
+  const ViewDatabase& database = Database();
+  const ViewEquivalence cow(database.models[0].symmetry);
+  const ViewEquivalence hand(database.models[1].symmetry);
+  ASSERT_EQ(database.models[0].symmetry.mirrors.size(), 1u);
+  const Eigen::Vector3d n = database.models[0].symmetry.mirrors[0].normal.normalized();
+  // A view well away from the mirror plane and from its normal: its twin -M d is far from it.
+  const Eigen::Vector3d d =
+      (Eigen::Vector3d(1.0, 0.0, 0.0) + 0.6 * n + 0.3 * Eigen::Vector3d::UnitY()).normalized();
+  const Eigen::Vector3d twin = (2.0 * d.dot(n) * n - d).normalized();
+  ASSERT_GT(std::acos(d.dot(twin)) * 180.0 / std::numbers::pi, 60.0);
+  const int before = database.sphere.NearestView(d);
+  const int after = database.sphere.NearestView(twin);
+  EXPECT_TRUE(TrackSmoother::IsMirrorFlip(database, cow, 0, before, after, 15.0));
+  // Not a flip: staying near the view, or jumping anywhere else.
+  const Eigen::Vector3d near = (d + 0.1 * d.cross(n).normalized()).normalized();
+  EXPECT_FALSE(TrackSmoother::IsMirrorFlip(database, cow, 0, before,
+                                           database.sphere.NearestView(near), 15.0));
+  const Eigen::Vector3d elsewhere = d.cross(twin).normalized();
+  EXPECT_FALSE(TrackSmoother::IsMirrorFlip(database, cow, 0, before,
+                                           database.sphere.NearestView(elsewhere), 15.0));
+  // The hand has no mirror plane; indices outside the database are not flips.
+  EXPECT_TRUE(database.models[1].symmetry.mirrors.empty());
+  EXPECT_FALSE(TrackSmoother::IsMirrorFlip(database, hand, 1, before, after, 15.0));
+  EXPECT_FALSE(TrackSmoother::IsMirrorFlip(database, cow, 0, -1, after, 15.0));
+  EXPECT_FALSE(TrackSmoother::IsMirrorFlip(database, cow, 2, before, after, 15.0));
+}
+
 TEST(TrackerRevise, ReposesAFrameAsAnotherHypothesisAndKeepsItsOwn) {
   Tracker tracker(Database(), Sequence().camera(), TrackerOptions{});
   TrackedFrame tracked;

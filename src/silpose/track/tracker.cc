@@ -225,9 +225,11 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   }
   MirrorTwin twin;
   const bool has_twin = usable && ScoreMirrorTwin(radii, view, shell, tracked, &twin);
-  if (has_twin)
+  if (has_twin) {
     features.twin_score_gap =
         static_cast<double>(twin.reported_score) - static_cast<double>(twin.score);
+    tracked->mirror_twin = twin;
+  }
   if (previous_area_px_ > 0.0 && signature.area_px > 0.0)
     features.area_change = std::abs(std::log(signature.area_px / previous_area_px_));
   previous_area_px_ = signature.area_px;
@@ -334,6 +336,7 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
                            : std::nan("");
   revised.pose.reset();
   revised.refinement.reset();
+  revised.mirror_twin.reset();
   result.camera_from_object.reset();
   result.iou = std::nan("");
   for (const char* suffix : {"-cut-by-border-no-pose", "-no-pose"}) {

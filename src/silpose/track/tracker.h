@@ -104,6 +104,18 @@ struct TrackedFrame {
   std::optional<FilterEstimate> estimate;
   /// What result.confidence was computed from (frames with a silhouette and an estimate).
   std::optional<ConfidenceFeatures> confidence_features;
+  /// For an object with a mirror plane: the best-scoring mirror twin of the reported database
+  /// view (the view whose outline is the same up to perspective, farther than the filter's mode
+  /// radius), scored on this frame.
+  struct MirrorTwin {
+    /// Database view and the roll at its best score.
+    int view = -1;
+    double roll_deg = 0.0;
+    /// Its best score over all rolls, and the reported view's, computed the same way.
+    float score = 0.0f;
+    float reported_score = 0.0f;
+  };
+  std::optional<MirrorTwin> mirror_twin;
 };
 
 /// Puts `result`'s pose, view direction and roll in canonical form for an object with
@@ -173,13 +185,7 @@ class Tracker {
   std::unique_ptr<Segmenter> segmenter_;
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
-  struct MirrorTwin {
-    int view = -1;
-    float score = 0.0f;
-    double roll_deg = 0.0;
-    /// The reported database view's score, computed the same way (best over all rolls).
-    float reported_score = 0.0f;
-  };
+  using MirrorTwin = TrackedFrame::MirrorTwin;
   /// The best-scoring mirror twin of the reported database view `view` farther than the filter's
   /// mode radius (modulo rotational symmetry); false if the object has no mirror plane, no such
   /// twin, or the frame's signature is flat.
