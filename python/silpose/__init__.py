@@ -94,6 +94,8 @@ def track_video(database, input, output=None, camera=None, options=None, max_fra
         camera = Camera.read(os.fspath(camera))
     if smooth and lag:
         raise Error("give smooth or lag, not both")
+    if lag < 0:
+        raise Error(f"lag must be >= 0 frames (smooth=True for offline smoothing), got {lag}")
     writer = PosesWriter(os.fspath(output)) if output is not None else None
     results = []
     tracker = None

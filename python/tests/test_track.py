@@ -170,3 +170,5 @@ def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp
     assert read_poses(tmp_path / "py.csv") == read_poses(cli)
     with pytest.raises(silpose.Error, match="not both"):
         silpose.track_video(database, video / "video.avi", options=options, lag=3, smooth=True)
+    with pytest.raises(silpose.Error, match="lag must be >= 0"):
+        silpose.track_video(database, video / "video.avi", options=options, lag=-1)

@@ -482,6 +482,7 @@ void RunTrackJob(const TrackJob& arguments) {
   // What each frame needs once its result is final (later, with smoothing): its name, number and
   // (for the overlay) the image; offline the image waits JPEG-compressed.
   struct Waiting {
+    int frame = 0;  // the tracker's frame number
     std::string name;
     int image_id = -1;
     int index = 0;
@@ -490,8 +491,14 @@ void RunTrackJob(const TrackJob& arguments) {
   };
   std::deque<Waiting> waiting;
   const auto emit = [&](TrackedFrame tracked) {
-    Waiting info = std::move(waiting.front());
-    waiting.pop_front();
+    // Frames come out in order; one whose result was lost to a fault is skipped.
+    while (!waiting.empty() && waiting.front().frame < tracked.result.frame) waiting.pop_front();
+    Waiting info;
+    info.index = tracked.result.frame;
+    if (!waiting.empty() && waiting.front().frame == tracked.result.frame) {
+      info = std::move(waiting.front());
+      waiting.pop_front();
+    }
     cv::Mat image = info.image;
     if (!info.jpeg.empty()) image = cv::imdecode(info.jpeg, cv::IMREAD_COLOR);
     tracked.result.frame_name = info.name;
@@ -519,7 +526,7 @@ void RunTrackJob(const TrackJob& arguments) {
       std::snprintf(name, sizeof(name), "%06d.png", index);
       WriteMask(std::filesystem::path(arguments.masks_out) / name, tracked.segmentation.mask);
     }
-    if (outputs.overlay) {
+    if (outputs.overlay && !image.empty()) {
       OverlayOptions overlay;
       overlay.frame_number = index;
       PosedModel posed;
@@ -540,6 +547,7 @@ void RunTrackJob(const TrackJob& arguments) {
   try {
     do {
       Waiting info;
+      info.frame = tracker.num_frames();
       info.name = source->name();
       info.image_id = NumericStem(info.name);
       // Ground truth rows are matched by the image's number when it has one, else by the index.
@@ -690,8 +698,8 @@ void AddTrackCommand(CLI::App& app) {
                    "after it (live smoothing from the particle histories; docs/tracking.md)")
       ->check(CLI::Range(0, 100000));
   command->add_flag("--smooth", arguments->smooth,
-                    "Report every frame at the end of the input from the history of the final "
-                    "best particle (offline smoothing; docs/tracking.md)");
+                    "Report every frame at the end of the input from the particle history that "
+                    "explains the whole input best (offline smoothing; docs/tracking.md)");
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
   command

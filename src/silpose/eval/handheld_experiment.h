@@ -81,8 +81,8 @@ enum class HandheldTracker {
   /// The filter, each frame reported 10 frames late from the particle histories (TrackSmoother,
   /// track/smoother.h; `silpose track --lag 10`).
   kFilterLag10,
-  /// The filter, every frame reported at the end from the final best particle's history
-  /// (TrackSmoother::kOffline; `silpose track --smooth`).
+  /// The filter, every frame reported at the end from the particle history that explains the
+  /// whole sequence best (TrackSmoother::kOffline; `silpose track --smooth`).
   kFilterSmooth,
 };
 

@@ -331,7 +331,7 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   for (Particle& p : particles_) {
     p.history = std::make_shared<const HistoryNode>(
         PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known, p.score,
-                  frame != nullptr},
+                  frame != nullptr && frame->has_variance},
         std::move(p.history));
   }
   const Particle& chosen = particles_[best];

@@ -350,7 +350,8 @@ struct PoseState {
   /// Correlation at the particle's roll in its last measurement (this frame's if measured), in
   /// [-1, 1]; 0 before any.
   float score = 0.0f;
-  /// The frame was measured (Step), not only predicted.
+  /// The frame was measured and weighed (Step with a signature that is not flat), so `score` is
+  /// this frame's.
   bool measured = false;
 };
 
@@ -491,12 +492,12 @@ class ParticleFilter {
   /// The fixed-lag smoothing estimate of an earlier frame: the particles' ancestors in `frame`
   /// (the states their histories hold for it), weighted by the particles' current weights, form
   /// the smoothed posterior of that frame given every frame since; of them, in `object` (if >= 0:
-  /// only that object's particles count; else the object with the most weight), the state of the
-  /// heaviest view in the heaviest mode (views within mode_radius_deg modulo rotational
-  /// symmetry). As histories never leave their object, give the object the frame was reported as
-  /// when the object may have changed since. nullopt if no history reaches `frame` (not yet
-  /// processed, or cut by max_history_frames). Costs one walk of each particle's history back to
-  /// `frame`.
+  /// only that object's particles count; else the object with the most weight), the state at the
+  /// centre of the heaviest mode: the view whose neighbourhood (views within mode_radius_deg modulo
+  /// rotational symmetry) holds the most weight, its own weight breaking ties. As histories never
+  /// leave their object, give the object the frame was reported as when the object may have changed
+  /// since. nullopt if no history reaches `frame` (not yet processed, or cut by
+  /// max_history_frames). Costs one walk of each particle's history back to `frame`.
   std::optional<PoseState> SmoothedState(int64_t frame, int object = -1) const;
   /// The history of one particle, oldest first.
   static std::vector<PoseState> History(const Particle& particle);

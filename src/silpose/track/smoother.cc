@@ -64,6 +64,8 @@ bool TrackSmoother::IsMirrorFlip(const ViewDatabase& database, const ViewEquival
     // The view whose outline is that of `before` (geometry/symmetry.h): -M before.
     const Eigen::Vector3d n = mirror.normal.normalized();
     const Eigen::Vector3d twin = (2.0 * b.dot(n) * n - b).normalized();
+    // A twin within the radius of `before` (seen along the plane's normal) is the same view.
+    if (same.AngleDeg(twin, b) <= radius_deg) continue;
     if (same.AngleDeg(d, twin) <= radius_deg + std::max(motion_deg, 0.0)) return true;
   }
   return false;

@@ -74,7 +74,8 @@ class TrackSmoother {
   /// Whether database view `after` of `object` is a mirror flip of view `before`, one frame
   /// later: farther than `radius_deg` from it, and within `radius_deg` + `motion_deg` (what the
   /// object may have turned in the frame) of one of its mirror twins (-M before for each mirror
-  /// plane of the object); angles modulo the object's rotational symmetry (`same`).
+  /// plane of the object) that is itself farther than `radius_deg` from `before`; angles modulo
+  /// the object's rotational symmetry (`same`).
   static bool IsMirrorFlip(const ViewDatabase& database, const ViewEquivalence& same, int object,
                            int before, int after, double radius_deg, double motion_deg = 0.0);
 

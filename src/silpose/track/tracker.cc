@@ -274,9 +274,7 @@ void Tracker::EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* 
     }
   } catch (const Error&) {
     // A problem of this frame only (e.g. a centroid outside the lens model's valid range): the
-    // frame keeps its object and view, without a pose.
-    tracked->pose.reset();
-    result.camera_from_object.reset();
+    // frame keeps its object and view (and the grid pose if only the refinement failed).
     result.status += "-no-pose";
   }
 }
@@ -369,15 +367,23 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
   features.has_fit = std::isfinite(fit_iou) && std::isfinite(fit_rms_px) && mean_radius > 0.0;
   features.iou = features.has_fit ? fit_iou : 0.0;
   features.outline_rms = features.has_fit ? fit_rms_px / mean_radius : 0.0;
-  // The frame's outline favoured the former hypothesis by the twin gap (if it had one): the new
-  // one is at best as good.
-  if (std::isfinite(features.twin_score_gap))
-    features.twin_score_gap = -std::abs(features.twin_score_gap);
+  // The twin gap: re-posed as the frame's own mirror twin, the gap turns round (the former view
+  // is now the twin); re-posed elsewhere, the frame's outline favoured the former view by the gap
+  // (if it had one), so the new one is taken as at best as good.
+  if (std::isfinite(features.twin_score_gap)) {
+    const bool as_twin = frame.mirror_twin && frame.mirror_twin->view == state.view;
+    features.twin_score_gap =
+        as_twin ? -features.twin_score_gap : -std::abs(features.twin_score_gap);
+  }
   revised.confidence_features = features;
   result.confidence = state_->options().model.Evaluate(features);
   if (before.state == TrackState::kTracking || before.state == TrackState::kAmbiguous) {
-    result.state = result.confidence >= state_->options().min_confidence ? TrackState::kTracking
-                                                                         : TrackState::kAmbiguous;
+    // The state rules' tracking test, without their memory: confident, and no twin alike.
+    const bool twin_alike = std::isfinite(features.twin_score_gap) &&
+                            features.twin_score_gap <= state_->options().twin_score_gap;
+    result.state = result.confidence >= state_->options().min_confidence && !twin_alike
+                       ? TrackState::kTracking
+                       : TrackState::kAmbiguous;
   }
   // The former hypothesis is the runner-up (already in canonical form).
   result.runner_up_object = before.object;
