@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "silpose/database/view_database.h"
 #include "silpose/geometry/view_sphere.h"
+#include "silpose/io/avi_file.h"
+#include "silpose/util/error.h"
 
 namespace silpose {
 namespace {
@@ -28,6 +31,23 @@ TEST(FuzzRegression, DatabaseWithAnEmptyNeighbourListReadsBack) {
   const ViewDatabase read = ViewDatabase::Deserialize(bytes, "empty-neighbours.db");
   EXPECT_TRUE(read.sphere.neighbour_indices.empty());
   EXPECT_EQ(read.Serialize(), bytes);
+}
+
+// An AVI whose 8-bit frames are uncompressed by the stream header's handler while the format names
+// another compression: the frames were looked up in an empty palette (UBSan: an offset applied to
+// a null pointer). Now they are read with a grey ramp, or the file is refused with a message.
+TEST(FuzzRegression, EightBitAviWithoutAPaletteIsReadOrRefused) {
+  const std::string path =
+      std::string(SILPOSE_FUZZ_CORPUS_DIR) + "/avi/regression-8bit-without-palette.avi";
+  try {
+    AviReader reader(path);
+    cv::Mat frame;
+    for (int i = 0; i < 64 && reader.Read(&frame); ++i) EXPECT_FALSE(frame.empty());
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("regression-8bit-without-palette.avi"),
+              std::string::npos)
+        << error.what();
+  }
 }
 
 }  // namespace

@@ -441,6 +441,15 @@ AviReader::AviReader(const std::filesystem::path& path, FrameColor color)
                ", or convert it, e.g. ffmpeg -i IN -c:v mjpeg -q:v 2 OUT.avi");
   }
   palette_ = std::move(parsed.palette);
+  if (header_.bits_per_pixel == 8 && palette_.size() != 256) {
+    // 8-bit frames without a palette (e.g. uncompressed by the stream header's handler, with
+    // another compression code in the format): a grey ramp, as for a missing palette.
+    palette_.resize(256);
+    for (int i = 0; i < 256; ++i) {
+      const auto level = static_cast<std::uint8_t>(i);
+      palette_[static_cast<size_t>(i)] = cv::Vec3b(level, level, level);
+    }
+  }
   if (!palette_.empty()) {
     gray_palette_ = std::all_of(palette_.begin(), palette_.end(),
                                 [](const cv::Vec3b& c) { return c[0] == c[1] && c[1] == c[2]; });
