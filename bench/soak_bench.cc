@@ -89,7 +89,7 @@ void BM_SoakTrackMaskVideo(benchmark::State& state) {
   {
     size_t signatures = 0, records = 0, meshes = 0;
     for (const ModelViews& m : database.models) {
-      signatures += m.signatures.capacity() * sizeof(float);
+      signatures += m.signatures.owned_bytes();
       records += m.views.capacity() * sizeof(ViewRecord);
       meshes += m.mesh.vertices.capacity() * sizeof(m.mesh.vertices[0]) +
                 m.mesh.triangles.capacity() * sizeof(m.mesh.triangles[0]);

@@ -4,6 +4,7 @@
 // the checksum instead of stopping at it.
 
 #include <cstring>
+#include <memory>
 #include <string>
 
 #include "fuzz/fuzz_common.h"
@@ -31,6 +32,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const ViewDatabase database = ViewDatabase::Deserialize(bytes, "fuzz.db");
     // What a reader does next with a database it accepted: write it, match against it.
     (void)database.Serialize();
+    if (database.models.empty()) return;
+    const silpose::ViewSpectra spectra(database);
+    silpose::ViewMatcher matcher(spectra);
+    silpose::MatchOptions options;
+    options.top_k = 3;
+    options.apparent_radius = database.ApparentRadius(0, 0, 0);
+    (void)matcher.Match(database.models[0].Signature(0, 0), options);
+  });
+  silpose::fuzz::ExpectOnlySilposeErrors([&] {
+    // As ViewDatabase::Read opens a file: the bulk referred to in place, each block and view
+    // checked when the matcher first uses it.
+    const auto keep = std::make_shared<const std::string>(bytes);
+    const ViewDatabase database =
+        ViewDatabase::Deserialize(*keep, "fuzz.db", silpose::ViewChecks::kOnFirstUse, keep);
     if (database.models.empty()) return;
     const silpose::ViewSpectra spectra(database);
     silpose::ViewMatcher matcher(spectra);

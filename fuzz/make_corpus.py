@@ -345,7 +345,9 @@ def masks():
                                        36 < (x - 8) ** 2 + (y - 16) ** 2 < 150))
 
 
-# --- database: a tiny database of the anchor (raw file, and payload only: see the fuzzer)
+# --- database: a tiny database of the anchor (raw file, and payload only: see the fuzzer). The
+# seeds tiny_v3.db and tiny_payload_v3 are the same in format version 3 (kept from an older
+# silpose, for the reader of that version).
 def databases(silpose, scratch):
     path = os.path.join(scratch, "tiny.db")
     subprocess.run([silpose, "build-db", os.path.join(ROOT, "data", "models", "anchor.obj"),

@@ -127,6 +127,46 @@ TEST_F(CliTest, RenderWithACameraFileUsesItsImageSize) {
   EXPECT_GT(cv::countNonZero(image), 1000);
 }
 
+TEST_F(CliTest, MatchTakesManyMasksAndGoesOnPastOneThatCannotBeMatched) {
+  const ViewDatabase database = ViewDatabase::Read(database_);
+  std::vector<std::string> masks;
+  for (int view : {12, 80}) {
+    const Eigen::Vector3d d = database.sphere.directions[static_cast<size_t>(view)];
+    std::ostringstream direction;
+    direction << d.x() << ',' << d.y() << ',' << d.z();
+    masks.push_back(Path("many" + std::to_string(view) + ".png"));
+    ASSERT_EQ(Silpose("render " + models_ + "/hand.obj --view=" + direction.str() +
+                      " --roll -20 --resolution 240 -o " + masks.back())
+                  .exit_code,
+              0);
+  }
+  const std::string empty = Path("many_empty.png");
+  cv::imwrite(empty, cv::Mat::zeros(40, 40, CV_8UC1));
+  const std::string all = masks[0] + " " + empty + " " + masks[1];
+  // JSON: one entry per mask, in order; the empty one carries its error.
+  const CommandResult json = Silpose("match -d " + database_ + " " + all + " --top 1 --json");
+  EXPECT_NE(json.exit_code, 0);
+  const nlohmann::json list = nlohmann::json::parse(json.out);
+  ASSERT_TRUE(list.is_array());
+  ASSERT_EQ(list.size(), 3u);
+  EXPECT_EQ(list[0]["mask"], masks[0]);
+  EXPECT_EQ(list[0]["candidates"][0]["object"], "hand");
+  EXPECT_EQ(list[0]["candidates"][0]["view"], 12);
+  EXPECT_EQ(list[1]["mask"], empty);
+  EXPECT_NE(list[1]["error"].get<std::string>().find("no usable silhouette"), std::string::npos);
+  EXPECT_EQ(list[2]["candidates"][0]["view"], 80);
+  EXPECT_NE(json.err.find("many_empty.png: no usable silhouette"), std::string::npos) << json.err;
+  EXPECT_NE(json.err.find("1 of 3 masks could not be matched"), std::string::npos) << json.err;
+  // Tables: each mask's, the same as matching it alone.
+  const CommandResult table = Silpose("match -d " + database_ + " " + all + " --top 1");
+  EXPECT_NE(table.exit_code, 0);
+  EXPECT_NE(table.out.find("2 masks matched"), std::string::npos) << table.out;
+  const CommandResult alone = Silpose("match -d " + database_ + " " + masks[1] + " --top 1");
+  ASSERT_EQ(alone.exit_code, 0);
+  const std::string first_line = alone.out.substr(0, alone.out.find("6-DOF"));
+  EXPECT_NE(table.out.find(first_line), std::string::npos) << table.out;
+}
+
 // Bad input: one clear line on stderr naming the file or parameter, a non-zero exit, no crash.
 TEST_F(CliTest, BadInputGivesOneClearLineAndANonZeroExit) {
   const std::string empty_mask = Path("empty.png");

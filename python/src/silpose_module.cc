@@ -542,8 +542,9 @@ void BindDatabase(py::module_& m) {
       [](const std::vector<std::filesystem::path>& mesh_paths,
          std::optional<DatabaseBuildOptions> options, std::optional<std::filesystem::path> out) {
         py::gil_scoped_release release;
-        ViewDatabase database =
-            BuildViewDatabase(mesh_paths, options.value_or(DatabaseBuildOptions{}));
+        const DatabaseBuildOptions build = options.value_or(DatabaseBuildOptions{});
+        ViewDatabase database = BuildViewDatabase(mesh_paths, build);
+        StoreViewSpectra(&database, CorrelationOptions{}, build.num_threads);
         if (out) database.Write(*out);
         return database;
       },

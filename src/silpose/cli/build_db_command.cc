@@ -7,6 +7,7 @@
 
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_builder.h"
+#include "silpose/match/view_matcher.h"
 #include "silpose/util/error.h"
 #include "silpose/util/output_file.h"
 #include "silpose/util/progress.h"
@@ -117,7 +118,9 @@ void RunBuildDb(const BuildDbArguments& arguments) {
   DatabaseBuildOptions options = arguments.options;
   options.show_progress = true;
   const auto start = std::chrono::steady_clock::now();
-  const ViewDatabase database = BuildViewDatabase(paths, options);
+  ViewDatabase database = BuildViewDatabase(paths, options);
+  // The views' spectra go into the file: opening it then transforms nothing (docs/PERFORMANCE.md).
+  StoreViewSpectra(&database, CorrelationOptions{}, options.num_threads);
   database.Write(arguments.output);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

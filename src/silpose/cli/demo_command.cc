@@ -8,6 +8,7 @@
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/io/video_writer.h"
+#include "silpose/match/view_matcher.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
 
@@ -42,7 +43,8 @@ void RunDemo(const DemoArguments& arguments) {
   build.num_threads = arguments.threads;
   build.show_progress = true;
   const auto build_start = std::chrono::steady_clock::now();
-  const ViewDatabase database = BuildViewDatabase(models, build);
+  ViewDatabase database = BuildViewDatabase(models, build);
+  StoreViewSpectra(&database, CorrelationOptions{}, arguments.threads);
   const std::filesystem::path database_path = output / "demo.db";
   database.Write(database_path);
   std::printf("1. database: %zu models x %d views (%.1f deg apart) in %.1f s -> %s\n",

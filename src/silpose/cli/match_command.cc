@@ -17,7 +17,7 @@ namespace {
 
 struct MatchArguments {
   std::string database;
-  std::string mask;
+  std::vector<std::string> masks;
   std::string camera;
   bool no_refine = false;
   int top_k = 5;
@@ -25,14 +25,17 @@ struct MatchArguments {
   bool exhaustive = false;
 };
 
-void RunMatch(const MatchArguments& arguments) {
+// Matches one mask: prints its table, or returns its JSON object. Throws silpose::Error naming the
+// mask (or camera file) if it cannot be matched.
+nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& arguments,
+                        const std::string& mask_path) {
   const auto start = std::chrono::steady_clock::now();
-  const ViewDatabase database = ViewDatabase::Read(arguments.database);
-  const cv::Mat mask = ReadMask(arguments.mask);
+  const struct { const std::string& mask; } current{mask_path};
+  const cv::Mat mask = ReadMask(current.mask);
   const SignatureResult silhouette = ExtractSignature(mask, database.parameters.signature);
   if (!silhouette.ok()) {
     ThrowError(
-        arguments.mask, ": no usable silhouette (", ToString(silhouette.status),
+        current.mask, ": no usable silhouette (", ToString(silhouette.status),
         silhouette.status == SignatureStatus::kTooSmall
             ? ": it must enclose at least " +
                   std::to_string(static_cast<int>(database.parameters.signature.min_area_px)) +
@@ -46,7 +49,7 @@ void RunMatch(const MatchArguments& arguments) {
     camera = ReadCameraFile(arguments.camera);
     if (camera.width_px != mask.cols || camera.height_px != mask.rows) {
       ThrowError(arguments.camera, ": the camera is ", camera.width_px, "x", camera.height_px,
-                 " pixels but ", arguments.mask, " is ", mask.cols, "x", mask.rows,
+                 " pixels but ", current.mask, " is ", mask.cols, "x", mask.rows,
                  ": wrong calibration file?");
     }
   }
@@ -79,7 +82,7 @@ void RunMatch(const MatchArguments& arguments) {
   const PolarSignature& signature = silhouette.signature;
   if (arguments.json) {
     nlohmann::json output;
-    output["mask"] = arguments.mask;
+    output["mask"] = current.mask;
     output["database"] = arguments.database;
     output["silhouette"] = {{"status", ToString(silhouette.status)},
                             {"flags", DescribeSilhouetteFlags(silhouette.flags)},
@@ -118,10 +121,9 @@ void RunMatch(const MatchArguments& arguments) {
         std::isfinite(best.confidence) ? nlohmann::json(best.confidence) : nlohmann::json(nullptr);
     output["state"] = TrackStateName(best.state);
     output["iou"] = std::isfinite(best.iou) ? nlohmann::json(best.iou) : nlohmann::json(nullptr);
-    std::cout << output.dump(2) << "\n";
-    return;
+    return output;
   }
-  std::printf("%s: %s, centroid (%.1f, %.1f) px, mean radius %.1f px\n", arguments.mask.c_str(),
+  std::printf("%s: %s, centroid (%.1f, %.1f) px, mean radius %.1f px\n", current.mask.c_str(),
               silhouette.Describe().c_str(), signature.centroid_px.x(), signature.centroid_px.y(),
               signature.mean_radius_px);
   std::printf("%4s  %-24s %6s  %-26s %9s %8s\n", "rank", "object", "view", "view direction",
@@ -159,6 +161,48 @@ void RunMatch(const MatchArguments& arguments) {
   std::printf("matched against %zu models x %d views in %.1f ms (%d correlated), %.0f ms in all\n",
               database.models.size(), database.num_views(), match_ms,
               matcher.last_stats().views_correlated, total_ms);
+  return nullptr;
+}
+
+void RunMatch(const MatchArguments& arguments) {
+  const auto start = std::chrono::steady_clock::now();
+  const ViewDatabase database = ViewDatabase::Read(arguments.database);
+  const double open_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (arguments.masks.size() == 1) {
+    const nlohmann::json output = MatchOne(database, arguments, arguments.masks.front());
+    if (arguments.json) std::cout << output.dump(2) << "\n";
+    return;
+  }
+  // Several masks: each matched on its own against the database opened once. A mask that cannot
+  // be matched gets its message (and, in JSON, an entry with an "error"), the others go on, and
+  // the command fails at the end.
+  nlohmann::json list = nlohmann::json::array();
+  size_t failed = 0;
+  for (size_t i = 0; i < arguments.masks.size(); ++i) {
+    const std::string& mask = arguments.masks[i];
+    try {
+      if (!arguments.json && i > 0) std::printf("\n");
+      nlohmann::json output = MatchOne(database, arguments, mask);
+      if (arguments.json) list.push_back(std::move(output));
+    } catch (const Error& error) {
+      ++failed;
+      std::fflush(stdout);
+      std::fprintf(stderr, "silpose match: %s\n", error.what());
+      if (arguments.json) list.push_back({{"mask", mask}, {"error", error.what()}});
+    }
+  }
+  const double total_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (arguments.json) {
+    std::cout << list.dump(2) << "\n";
+  } else {
+    std::printf("\n%zu masks matched in %.0f ms (the database opened once, in %.0f ms)\n",
+                arguments.masks.size() - failed, total_ms, open_ms);
+  }
+  if (failed > 0) {
+    ThrowError(failed, " of ", arguments.masks.size(), " masks could not be matched (named above)");
+  }
 }
 
 }  // namespace
@@ -167,11 +211,16 @@ void AddMatchCommand(CLI::App& app) {
   auto arguments = std::make_shared<MatchArguments>();
   CLI::App* command =
       app.add_subcommand("match",
-                         "Match one mask image against every view of a database and print the best "
-                         "(object, view, roll, score) candidates and the 6-DOF pose of the best.");
+                         "Match mask images, each on its own, against every view of a database and "
+                         "print the best (object, view, roll, score) candidates and the 6-DOF pose "
+                         "of the best (JSON: one object per mask, a list for several).");
   command->add_option("-d,--database", arguments->database, "Database file from build-db")
       ->required();
-  command->add_option("mask", arguments->mask, "Mask image (8-bit, non-zero = object)")->required();
+  command
+      ->add_option("masks", arguments->masks,
+                   "Mask images (8-bit, non-zero = object); several are matched one by one "
+                   "against the database opened once")
+      ->required();
   command->add_option("--top", arguments->top_k, "Number of candidates to print")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -79,6 +79,10 @@ void AppendDatabase(ViewDatabase&& shard, const std::string& shard_name, ViewDat
     }
     merged->models.push_back(std::move(model));
   }
+  // The models' signatures and spectra may refer to the shard's mapped file.
+  for (auto& storage : shard.storage) merged->storage.push_back(std::move(storage));
+  if (shard.views_unchecked) merged->views_unchecked = true;
+  if (merged->source.empty()) merged->source = merged_name;
 }
 
 ViewDatabase MergeViewDatabases(const std::vector<std::filesystem::path>& paths) {
@@ -86,7 +90,8 @@ ViewDatabase MergeViewDatabases(const std::vector<std::filesystem::path>& paths)
   ViewDatabase merged;
   std::map<std::string, std::string> file_of_model;
   for (const std::filesystem::path& path : paths) {
-    ViewDatabase shard = ViewDatabase::Read(path);
+    // Every view checked now: the merged database is written out.
+    ViewDatabase shard = ViewDatabase::Read(path, ViewChecks::kAtOpen);
     for (const ModelViews& model : shard.models) {
       const auto [where, inserted] = file_of_model.emplace(model.name, path.string());
       if (!inserted) {

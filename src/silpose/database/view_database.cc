@@ -12,6 +12,7 @@
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
+#include "silpose/util/mapped_file.h"
 #include "silpose/util/output_file.h"
 
 namespace silpose {
@@ -27,6 +28,9 @@ constexpr size_t kHeaderSize = 8 + 4 + 8;
 constexpr size_t kChecksumSize = 8;
 constexpr uint32_t kSamplingFibonacci = 1;
 constexpr uint32_t kRollReferenceZUp = 1;
+// Signatures and stored spectra start at file offsets that are multiples of this (format 4 on),
+// so that they can be used where the file is mapped.
+constexpr size_t kArrayAlignment = 64;
 
 class Writer {
  public:
@@ -43,11 +47,48 @@ class Writer {
     Put<uint32_t>(static_cast<uint32_t>(text.size()));
     bytes_.append(text);
   }
+  /// Zero bytes up to the next file offset that is a multiple of kArrayAlignment.
+  void Align() {
+    bytes_.append((kArrayAlignment - bytes_.size() % kArrayAlignment) % kArrayAlignment, '\0');
+  }
+  /// An array left out of the structure checksum (it has checksums of its own).
+  template <typename T>
+  void PutBulk(std::span<const T> values) {
+    bulk_.push_back({bytes_.size(), values.size_bytes()});
+    PutArray<T>(values);
+  }
   std::string& bytes() { return bytes_; }
+  const std::vector<std::pair<size_t, size_t>>& bulk() const { return bulk_; }
 
  private:
   std::string bytes_;
+  /// (offset, size) of the arrays written by PutBulk.
+  std::vector<std::pair<size_t, size_t>> bulk_;
 };
+
+/// XXH64 of bytes [0, end) except the bulk ranges (increasing, inside [0, end)).
+uint64_t StructureHash(std::string_view bytes, size_t end,
+                       const std::vector<std::pair<size_t, size_t>>& bulk) {
+  Hasher hasher;
+  size_t position = 0;
+  for (const auto& [offset, size] : bulk) {
+    hasher.Update(bytes.data() + position, offset - position);
+    position = offset + size;
+  }
+  hasher.Update(bytes.data() + position, end - position);
+  return hasher.Digest();
+}
+
+/// XXH64 of each of `shells` equal consecutive blocks of `values`.
+template <typename T>
+std::vector<uint64_t> BlockHashes(std::span<const T> values, size_t shells) {
+  std::vector<uint64_t> hashes;
+  const size_t per_block = values.size() / shells;
+  for (size_t s = 0; s < shells; ++s) {
+    hashes.push_back(HashBytes(values.data() + s * per_block, per_block * sizeof(T)));
+  }
+  return hashes;
+}
 
 void PutVector(const Eigen::Vector3d& v, Writer* out) {
   for (int r = 0; r < 3; ++r) out->Put<double>(v[r]);
@@ -73,7 +114,9 @@ void WriteSymmetry(const ObjectSymmetry& symmetry, Writer* out) {
 
 class Reader {
  public:
-  Reader(std::string_view bytes, const std::string& source) : bytes_(bytes), source_(source) {}
+  /// `bytes` start at file offset `offset`; `refer`: arrays refer to `bytes` instead of copying.
+  Reader(std::string_view bytes, const std::string& source, size_t offset, bool refer)
+      : bytes_(bytes), source_(source), offset_(offset), refer_(refer) {}
 
   template <typename T>
   T Get(const char* what) {
@@ -91,6 +134,32 @@ class Reader {
     std::memcpy(values.data(), bytes_.data() + position_, values.size_bytes());
     position_ += values.size_bytes();
   }
+  /// `count` values of type T: referring to the bytes when the reader refers and they are aligned,
+  /// else copied.
+  template <typename T>
+  SharedArray<T> GetShared(size_t count, const char* what, bool bulk = false) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (count > remaining() / sizeof(T)) Fail(what, " run past the end of the data");
+    const char* data = bytes_.data() + position_;
+    if (bulk) bulk_.push_back({offset_ + position_, count * sizeof(T)});
+    position_ += count * sizeof(T);
+    if (refer_ && reinterpret_cast<uintptr_t>(data) % alignof(T) == 0) {
+      return SharedArray<T>::Refer(reinterpret_cast<const T*>(data), count);
+    }
+    std::vector<T> values(count);
+    if (count > 0) std::memcpy(values.data(), data, count * sizeof(T));
+    return SharedArray<T>(std::move(values));
+  }
+  /// Skips the zero bytes up to the next file offset that is a multiple of kArrayAlignment.
+  void Align(const char* what) {
+    const size_t padding =
+        (kArrayAlignment - (offset_ + position_) % kArrayAlignment) % kArrayAlignment;
+    Need(padding, what);
+    for (size_t i = 0; i < padding; ++i) {
+      if (bytes_[position_ + i] != '\0') Fail("non-zero padding before the ", what);
+    }
+    position_ += padding;
+  }
   std::string GetString(const char* what, size_t max_length) {
     const auto length = Get<uint32_t>(what);
     if (length > max_length) Fail(what, " is ", length, " bytes long (at most ", max_length, ")");
@@ -100,6 +169,8 @@ class Reader {
     return text;
   }
   size_t remaining() const { return bytes_.size() - position_; }
+  /// (file offset, size) of the arrays read by GetShared(..., bulk = true).
+  const std::vector<std::pair<size_t, size_t>>& bulk() const { return bulk_; }
 
   template <typename... Parts>
   [[noreturn]] void Fail(const Parts&... parts) const {
@@ -113,7 +184,10 @@ class Reader {
 
   std::string_view bytes_;
   const std::string& source_;
+  size_t offset_;
+  bool refer_;
   size_t position_ = 0;
+  std::vector<std::pair<size_t, size_t>> bulk_;
 };
 
 // Counts read from the file are checked against this before anything is allocated.
@@ -207,7 +281,7 @@ std::span<const float> ModelViews::Signature(int view, int shell) const {
 
 std::span<float> ModelViews::MutableSignature(int view, int shell) {
   const size_t length = signatures.size() / views.size();
-  return {signatures.data() + RecordIndex(*this, view, shell) * length, length};
+  return {signatures.mutable_data() + RecordIndex(*this, view, shell) * length, length};
 }
 
 const ViewRecord& ModelViews::Record(int view, int shell) const {
@@ -317,12 +391,37 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
       out.Put<float>(view.area_px);
       out.Put<float>(view.relative_std);
     }
-    out.PutArray<float>(model.signatures);
+    if (format_version < 4) {
+      out.PutArray<float>(model.signatures);
+      continue;
+    }
+    const size_t shells = parameters.distances_in_radii.size();
+    for (uint64_t hash : BlockHashes<float>(model.signatures, shells)) out.Put<uint64_t>(hash);
+    out.Align();
+    out.PutBulk<float>(model.signatures);
+    const StoredSpectra& spectra = model.spectra;
+    out.Put<double>(spectra.empty() ? 0.0 : spectra.smoothing_deg);
+    out.Put<uint32_t>(spectra.harmonics);
+    if (!spectra.empty()) {
+      SILPOSE_ASSERT(spectra.kinds.size() == records);
+      SILPOSE_ASSERT(spectra.coefficients.size() == records * spectra.harmonics);
+      SILPOSE_ASSERT(spectra.magnitudes.size() == records * spectra.harmonics);
+      out.PutArray<uint8_t>(spectra.kinds);
+      for (uint64_t hash : BlockHashes<std::complex<float>>(spectra.coefficients, shells))
+        out.Put<uint64_t>(hash);
+      for (uint64_t hash : BlockHashes<float>(spectra.magnitudes, shells)) out.Put<uint64_t>(hash);
+      out.Align();
+      out.PutBulk<std::complex<float>>(spectra.coefficients);
+      out.PutBulk<float>(spectra.magnitudes);
+    }
   }
 
   std::string& bytes = out.bytes();
-  const uint64_t payload_size = bytes.size() - kHeaderSize;
+  // Format 4: the payload ends with the checksum of everything before it but the bulk arrays.
+  const size_t structure_checksum = format_version >= 4 ? sizeof(uint64_t) : 0;
+  const uint64_t payload_size = bytes.size() + structure_checksum - kHeaderSize;
   std::memcpy(bytes.data() + 12, &payload_size, sizeof(payload_size));
+  if (format_version >= 4) out.Put<uint64_t>(StructureHash(bytes, bytes.size(), out.bulk()));
   const uint64_t checksum = HashBytes(bytes.data(), bytes.size());
   out.Put<uint64_t>(checksum);
   return std::move(bytes);
@@ -334,21 +433,97 @@ void ViewDatabase::Write(const std::filesystem::path& path) const {
   WriteFileAtomically(path, Serialize());
 }
 
-ViewDatabase ViewDatabase::Read(const std::filesystem::path& path) {
+ViewDatabase ViewDatabase::Read(const std::filesystem::path& path, ViewChecks checks) {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) ThrowError(path.string(), ": no such file");
   if (std::filesystem::is_directory(path, error)) {
     ThrowError(path.string(), ": is a directory, not a database file");
   }
-  std::ifstream stream(path, std::ios::binary);
-  if (!stream) ThrowError(path.string(), ": cannot open for reading");
-  std::ostringstream contents;
-  contents << stream.rdbuf();
-  if (stream.bad()) ThrowError(path.string(), ": read error");
-  return Deserialize(contents.str(), path.string());
+  const std::shared_ptr<const MappedFile> file = MappedFile::Open(path);
+  return Deserialize(file->bytes(), path.string(), checks, file);
 }
 
-ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string& source) {
+void ViewDatabase::CheckView(int model_index, size_t record) const {
+  const ModelViews& model = models[static_cast<size_t>(model_index)];
+  const size_t per_shell = static_cast<size_t>(sphere.num_views());
+  const auto fail = [&](const char* problem) {
+    ThrowError(source.empty() ? std::string("database") : source, ": corrupt database: model '",
+               model.name, "' view ", record % per_shell, " of shell ", record / per_shell, " has ",
+               problem);
+  };
+  const size_t length = static_cast<size_t>(signature_length());
+  const float* radii = model.signatures.data() + record * length;
+  double sum = 0.0;
+  bool valid = true;
+  for (size_t i = 0; i < length; ++i) {
+    const float r = radii[i];
+    valid = valid && std::isfinite(r) && r >= 0.0f;
+    sum += r;
+  }
+  if (!valid) fail("an invalid signature value");
+  const bool described = model.views[record].status == SignatureStatus::kOk;
+  // A described view's radii are divided by their mean: their mean is 1.
+  if (described && std::abs(sum / static_cast<double>(length) - 1.0) > 1e-3) {
+    fail("a signature that is not normalised");
+  }
+  const StoredSpectra& spectra = model.spectra;
+  if (spectra.empty()) return;
+  const size_t h = spectra.harmonics;
+  const std::complex<float>* coefficients = spectra.coefficients.data() + record * h;
+  const float* magnitudes = spectra.magnitudes.data() + record * h;
+  for (size_t k = 0; k < h; ++k) {
+    valid = valid && std::isfinite(coefficients[k].real()) &&
+            std::isfinite(coefficients[k].imag()) && std::isfinite(magnitudes[k]) &&
+            magnitudes[k] >= 0.0f && std::abs(coefficients[k]) <= 1.0f && magnitudes[k] <= 1.0f;
+  }
+  if (!valid) fail("an invalid stored spectrum value");
+}
+
+void ViewDatabase::CheckBlock(int model_index, int shell, ViewBlock block) const {
+  const ModelViews& model = models[static_cast<size_t>(model_index)];
+  const auto s = static_cast<size_t>(shell);
+  const size_t views = static_cast<size_t>(sphere.num_views());
+  const char* name = "signatures";
+  const void* data = nullptr;
+  size_t size = 0;
+  uint64_t expected = 0;
+  if (block == ViewBlock::kSignatures) {
+    if (model.signature_hashes.size() <= s) return;
+    const size_t values = views * static_cast<size_t>(signature_length());
+    data = model.signatures.data() + s * values;
+    size = values * sizeof(float);
+    expected = model.signature_hashes[s];
+  } else {
+    const std::vector<uint64_t>& hashes =
+        block == ViewBlock::kCoefficients ? model.coefficient_hashes : model.magnitude_hashes;
+    if (hashes.size() <= s) return;
+    const size_t values = views * model.spectra.harmonics;
+    if (block == ViewBlock::kCoefficients) {
+      name = "stored spectra";
+      data = model.spectra.coefficients.data() + s * values;
+      size = values * sizeof(std::complex<float>);
+    } else {
+      name = "stored spectrum magnitudes";
+      data = model.spectra.magnitudes.data() + s * values;
+      size = values * sizeof(float);
+    }
+    expected = hashes[s];
+  }
+  if (HashBytes(data, size) != expected) {
+    ThrowError(source.empty() ? std::string("database") : source,
+               ": corrupt database (checksum mismatch in the ", name, " of model '", model.name,
+               "', shell ", shell, ")");
+  }
+}
+
+void ViewDatabase::CheckAllViews() const {
+  for (size_t m = 0; m < models.size(); ++m) {
+    for (size_t r = 0; r < models[m].views.size(); ++r) CheckView(static_cast<int>(m), r);
+  }
+}
+
+ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string& source,
+                                       ViewChecks checks, std::shared_ptr<const void> storage) {
   const size_t magic_bytes = std::min(bytes.size(), sizeof(kMagic));
   if (bytes.empty() || std::memcmp(bytes.data(), kMagic, magic_bytes) != 0) {
     ThrowError(source, ": not a silpose view database (no SILPOSDB magic number)");
@@ -375,13 +550,21 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     ThrowError(source, ": corrupt database (", available - payload_size,
                " bytes more than its header announces)");
   }
-  uint64_t stored_checksum = 0;
-  std::memcpy(&stored_checksum, bytes.data() + bytes.size() - kChecksumSize, kChecksumSize);
-  if (HashBytes(bytes.data(), bytes.size() - kChecksumSize) != stored_checksum) {
-    ThrowError(source, ": corrupt database (checksum mismatch)");
+  // Format 4 read with ViewChecks::kOnFirstUse: the structure checksum below instead of the whole
+  // file's; the bulk is checked block by block when used (CheckBlock).
+  const bool lazy = version >= 4 && checks == ViewChecks::kOnFirstUse;
+  if (!lazy) {
+    uint64_t stored_checksum = 0;
+    std::memcpy(&stored_checksum, bytes.data() + bytes.size() - kChecksumSize, kChecksumSize);
+    if (HashBytes(bytes.data(), bytes.size() - kChecksumSize) != stored_checksum) {
+      ThrowError(source, ": corrupt database (checksum mismatch)");
+    }
   }
+  const size_t structure_checksum = version >= 4 ? sizeof(uint64_t) : 0;
+  if (payload_size < structure_checksum) ThrowError(source, ": truncated database (no payload)");
 
-  Reader in(bytes.substr(kHeaderSize, payload_size), source);
+  Reader in(bytes.substr(kHeaderSize, payload_size - structure_checksum), source, kHeaderSize,
+            storage != nullptr);
   ViewDatabase database;
   DatabaseParameters& parameters = database.parameters;
   if (in.Get<uint32_t>("sampling method") != kSamplingFibonacci) in.Fail("unknown sampling method");
@@ -556,31 +739,68 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
         in.Fail("model '", model.name, "' has a non-finite view record");
       }
     }
-    model.signatures.resize(num_records * length);
-    in.GetArray<float>(model.signatures, "signatures");
-    for (float r : model.signatures) {
-      if (!std::isfinite(r) || r < 0.0f) {
-        in.Fail("model '", model.name, "' has an invalid signature value");
-      }
+    if (version >= 4) {
+      for (uint32_t s = 0; s < num_shells; ++s)
+        model.signature_hashes.push_back(in.Get<uint64_t>("signature checksums"));
+      in.Align("signatures");
     }
+    model.signatures = in.GetShared<float>(num_records * length, "signatures", version >= 4);
     if (std::none_of(model.views.begin(), model.views.end(),
                      [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {
       in.Fail("model '", model.name,
               "' has no view with a usable silhouette (built from a degenerate mesh?)");
     }
-    // A describable view's radii are divided by their mean: their mean is 1.
-    for (size_t v = 0; v < num_records; ++v) {
-      if (model.views[v].status != SignatureStatus::kOk) continue;
-      double sum = 0.0;
-      for (float r :
-           model.Signature(static_cast<int>(v % num_views), static_cast<int>(v / num_views)))
-        sum += r;
-      if (std::abs(sum / length - 1.0) > 1e-3) {
-        in.Fail("model '", model.name, "' view ", v, " has a signature that is not normalised");
+    if (version >= 4) {
+      StoredSpectra& spectra = model.spectra;
+      spectra.smoothing_deg = in.Get<double>("spectrum smoothing");
+      spectra.harmonics = in.Get<uint32_t>("spectrum harmonics");
+      if (!std::isfinite(spectra.smoothing_deg) || spectra.smoothing_deg < 0.0 ||
+          spectra.smoothing_deg > 360.0) {
+        in.Fail("model '", model.name, "' has spectrum smoothing ", spectra.smoothing_deg);
+      }
+      if (spectra.harmonics > length / 2 + 1) {
+        in.Fail("model '", model.name, "' has ", spectra.harmonics,
+                " harmonics per stored spectrum (at most ", length / 2 + 1, ")");
+      }
+      if (!spectra.empty()) {
+        spectra.kinds = in.GetShared<uint8_t>(num_records, "spectrum kinds");
+        for (size_t r = 0; r < num_records; ++r) {
+          const uint8_t kind = spectra.kinds[r];
+          const bool present = (kind & StoredSpectra::kPresent) != 0;
+          if ((kind & ~StoredSpectra::kAllBits) != 0 ||
+              present != (model.views[r].status == SignatureStatus::kOk) ||
+              (!present && kind != 0)) {
+            in.Fail("model '", model.name, "' view ", r % num_views, " of shell ", r / num_views,
+                    " has spectrum kind ", int{kind}, " that does not fit its record");
+          }
+        }
+        for (uint32_t s = 0; s < num_shells; ++s)
+          model.coefficient_hashes.push_back(in.Get<uint64_t>("spectrum checksums"));
+        for (uint32_t s = 0; s < num_shells; ++s)
+          model.magnitude_hashes.push_back(in.Get<uint64_t>("spectrum checksums"));
+        in.Align("stored spectra");
+        const size_t values = num_records * spectra.harmonics;
+        spectra.coefficients = in.GetShared<std::complex<float>>(values, "stored spectra", true);
+        spectra.magnitudes = in.GetShared<float>(values, "stored spectrum magnitudes", true);
       }
     }
   }
   if (in.remaining() != 0) in.Fail(in.remaining(), " unexpected bytes after the last model");
+  if (lazy) {
+    const size_t end = kHeaderSize + payload_size - structure_checksum;
+    uint64_t stored = 0;
+    std::memcpy(&stored, bytes.data() + end, sizeof(stored));
+    if (StructureHash(bytes, end, in.bulk()) != stored) {
+      ThrowError(source, ": corrupt database (checksum mismatch)");
+    }
+  }
+  database.source = source;
+  if (storage) database.storage.push_back(std::move(storage));
+  if (checks == ViewChecks::kAtOpen) {
+    database.CheckAllViews();
+  } else {
+    database.views_unchecked = true;
+  }
   return database;
 }
 

@@ -10,8 +10,10 @@
 // other-version file is refused with a silpose::Error naming the file and the problem.
 
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -20,6 +22,7 @@
 #include "silpose/geometry/view_sphere.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/shape/polar_signature.h"
+#include "silpose/util/shared_array.h"
 
 namespace silpose {
 
@@ -66,6 +69,34 @@ struct ViewRecord {
   float relative_std = 0.0f;
 };
 
+/// The spectra of a model's views as the matcher correlates them (match/view_matcher.h: the
+/// band-limited spectrum of each view's smoothed, normalised signature), stored in the database so
+/// that opening it transforms nothing: the matcher reads them where the file is mapped. Made by
+/// StoreViewSpectra (match/view_matcher.h) before a database is written; empty (harmonics 0) in
+/// databases of format version 3 and older and in databases made in memory, whose spectra are
+/// computed when first used.
+struct StoredSpectra {
+  /// Bits of `kinds`.
+  static constexpr uint8_t kPresent = 1;      ///< the view was described (ViewRecord::status ok)
+  static constexpr uint8_t kHasVariance = 2;  ///< SignatureSpectrum::has_variance
+  static constexpr uint8_t kUsable = 4;       ///< searched: described and not a perfect circle
+  static constexpr uint8_t kAllBits = kPresent | kHasVariance | kUsable;
+
+  /// The CorrelationOptions::smoothing_deg they were made with; used only by a matcher with the
+  /// same smoothing and signature length.
+  double smoothing_deg = 0.0;
+  /// Coefficients (and magnitudes) per view, H: CircularCorrelator::harmonics(). 0 = none stored.
+  uint32_t harmonics = 0;
+  /// Per record (shell-major, as ModelViews::views): kPresent | kHasVariance | kUsable bits.
+  SharedArray<uint8_t> kinds;
+  /// Per record, H coefficients (SignatureSpectrum::coefficients; all 0 where not present).
+  SharedArray<std::complex<float>> coefficients;
+  /// Per record, H unweighted magnitudes (SignatureSpectrum::magnitudes).
+  SharedArray<float> magnitudes;
+
+  bool empty() const { return harmonics == 0; }
+};
+
 /// All views of one model, in every distance shell.
 struct ModelViews {
   /// The model's name: its mesh file's stem.
@@ -89,8 +120,18 @@ struct ModelViews {
   /// One record per view and shell, shell-major: view v of shell s is views[s * N + v], N views.
   std::vector<ViewRecord> views;
   /// Signatures in the same order, M values each: (shell s, view v) is
-  /// signatures[(s * N + v) * M, (s * N + v + 1) * M). Unusable views are all 0.
-  std::vector<float> signatures;
+  /// signatures[(s * N + v) * M, (s * N + v + 1) * M). Unusable views are all 0. In a database
+  /// read from a file they refer to the mapped file (util/shared_array.h).
+  SharedArray<float> signatures;
+  /// The views' spectra, if stored (see StoredSpectra).
+  StoredSpectra spectra;
+  /// As read from a file of format 4: the XXH64 of each shell's block of signatures, stored
+  /// coefficients and stored magnitudes (one per shell each; the latter two empty without stored
+  /// spectra). Checked by ViewDatabase::CheckBlock. Empty for databases made in memory (writing
+  /// computes them from the data).
+  std::vector<uint64_t> signature_hashes;
+  std::vector<uint64_t> coefficient_hashes;
+  std::vector<uint64_t> magnitude_hashes;
 
   /// Shells held (views.size() / N for N views per shell).
   int num_shells(int num_views_per_shell) const;
@@ -128,15 +169,39 @@ int NearestShell(double apparent_radius, const std::vector<double>& distances_in
   return best;
 }
 
+/// When the bulk of a database file (the signatures and stored spectra) is checked on reading:
+/// every structural field, count and small value is always checked at once.
+enum class ViewChecks {
+  /// Everything while reading: the checksum of the whole file, every view's values.
+  kAtOpen,
+  /// Format 4 files: the checksum of everything but the bulk at once; each shell's block of
+  /// signatures, coefficients or magnitudes against its own checksum (ViewDatabase::CheckBlock)
+  /// and each view's values (ViewDatabase::CheckView) when the matcher first uses them
+  /// (ViewSpectra calls both), so that opening a large database reads little of it. Older
+  /// formats: the whole file's checksum at once, the views' values on first use.
+  kOnFirstUse,
+};
+
+/// The bulk blocks of a database file, one per model and shell each (ViewDatabase::CheckBlock).
+enum class ViewBlock { kSignatures, kCoefficients, kMagnitudes };
+
 class ViewDatabase {
  public:
-  /// Format version written by this build. Version 2 (without symmetries) is read too.
-  static constexpr uint32_t kFormatVersion = 3;
+  /// Format version written by this build. Versions 2 (without symmetries) and 3 (without stored
+  /// spectra) are read too.
+  static constexpr uint32_t kFormatVersion = 4;
   static constexpr uint32_t kOldestReadableVersion = 2;
 
   DatabaseParameters parameters;
   ViewSphere sphere;
   std::vector<ModelViews> models;
+  /// The file the database was read from (for messages; empty if made in memory).
+  std::string source;
+  /// Keeps the mapped files that signatures and spectra refer to alive (empty if they are owned;
+  /// several for a merge of databases).
+  std::vector<std::shared_ptr<const void>> storage;
+  /// Whether views still need CheckView before their values are used (ViewChecks::kOnFirstUse).
+  bool views_unchecked = false;
 
   int num_views() const { return sphere.num_views(); }
   int num_shells() const { return parameters.num_shells(); }
@@ -161,10 +226,26 @@ class ViewDatabase {
   /// silpose builds; without the symmetries). Throws silpose::Error for another version.
   std::string Serialize(uint32_t format_version = kFormatVersion) const;
 
-  /// Reads and checks a database file. Throws silpose::Error naming the file and the problem.
-  static ViewDatabase Read(const std::filesystem::path& path);
-  /// Parses bytes; `source` names them in error messages.
-  static ViewDatabase Deserialize(std::string_view bytes, const std::string& source);
+  /// Checks the values of record `record` (shell-major index) of `model`: a signature of finite,
+  /// non-negative radii with mean 1 if the view was described, else all 0; stored spectrum values
+  /// finite and consistent with the record. Throws silpose::Error naming `source`.
+  void CheckView(int model, size_t record) const;
+  /// CheckView for every view of every model.
+  void CheckAllViews() const;
+  /// Checks one shell's block of `model` against its checksum in the file (nothing to check for
+  /// databases made in memory or read from older formats). Throws silpose::Error naming `source`.
+  void CheckBlock(int model, int shell, ViewBlock block) const;
+
+  /// Reads and checks a database file. The file is mapped into memory, not copied: signatures and
+  /// stored spectra refer to it (opening takes milliseconds whatever the size; processes opening
+  /// the same file share its memory). Throws silpose::Error naming the file and the problem.
+  static ViewDatabase Read(const std::filesystem::path& path,
+                           ViewChecks checks = ViewChecks::kOnFirstUse);
+  /// Parses bytes; `source` names them in error messages. With `storage`, the signatures and
+  /// spectra refer to `bytes` (which `storage` must keep alive); without, they are copied.
+  static ViewDatabase Deserialize(std::string_view bytes, const std::string& source,
+                                  ViewChecks checks = ViewChecks::kAtOpen,
+                                  std::shared_ptr<const void> storage = nullptr);
 };
 
 }  // namespace silpose

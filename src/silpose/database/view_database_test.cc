@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <random>
+#include <tuple>
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
@@ -70,6 +72,54 @@ ViewDatabase SmallDatabase() {
 std::string ErrorOf(const std::string& bytes) {
   try {
     ViewDatabase::Deserialize(bytes, "test.db");
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
+}
+
+// SmallDatabase with stored spectra of 3 harmonics made up from the signatures (format 4).
+ViewDatabase SmallDatabaseWithSpectra() {
+  ViewDatabase database = SmallDatabase();
+  for (ModelViews& model : database.models) {
+    StoredSpectra& spectra = model.spectra;
+    spectra.smoothing_deg = 2.0;
+    spectra.harmonics = 3;
+    std::vector<uint8_t> kinds(model.views.size());
+    std::vector<std::complex<float>> coefficients(model.views.size() * 3);
+    std::vector<float> magnitudes(coefficients.size());
+    for (size_t r = 0; r < model.views.size(); ++r) {
+      if (model.views[r].status != SignatureStatus::kOk) continue;
+      kinds[r] = StoredSpectra::kPresent | StoredSpectra::kHasVariance | StoredSpectra::kUsable;
+      for (size_t k = 1; k < 3; ++k) {
+        coefficients[r * 3 + k] = {0.1f * model.signatures[r * 32 + k], -0.05f};
+        magnitudes[r * 3 + k] = std::abs(coefficients[r * 3 + k]);
+      }
+    }
+    spectra.kinds = std::move(kinds);
+    spectra.coefficients = std::move(coefficients);
+    spectra.magnitudes = std::move(magnitudes);
+  }
+  return database;
+}
+
+// Reads bytes as ViewDatabase::Read reads a file (kOnFirstUse), the arrays referring to `bytes`,
+// then uses every block and view as a matcher would. Returns the first error, or "".
+std::string LazyErrorOf(const std::string& bytes, ViewDatabase* out = nullptr) {
+  try {
+    const auto keep = std::make_shared<std::string>(bytes);
+    ViewDatabase database =
+        ViewDatabase::Deserialize(*keep, "test.db", ViewChecks::kOnFirstUse, keep);
+    if (out != nullptr) *out = database;
+    for (int m = 0; m < static_cast<int>(database.models.size()); ++m) {
+      for (int s = 0; s < database.num_shells(); ++s) {
+        for (ViewBlock block :
+             {ViewBlock::kSignatures, ViewBlock::kCoefficients, ViewBlock::kMagnitudes}) {
+          database.CheckBlock(m, s, block);
+        }
+      }
+    }
+    database.CheckAllViews();
   } catch (const Error& error) {
     return error.what();
   }
@@ -223,6 +273,118 @@ TEST(ViewDatabaseFile, EverySingleByteCorruptionIsRefused) {
   }
 }
 
+TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
+  const ViewDatabase original = SmallDatabaseWithSpectra();
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("silpose_mapped_" + std::to_string(::getpid()) + ".db");
+  original.Write(path);
+  {
+    const ViewDatabase loaded = ViewDatabase::Read(path);
+    EXPECT_TRUE(loaded.views_unchecked);
+    EXPECT_EQ(loaded.source, path.string());
+    ASSERT_EQ(loaded.storage.size(), 1u);
+    for (size_t m = 0; m < 2; ++m) {
+      const ModelViews& a = original.models[m];
+      const ModelViews& b = loaded.models[m];
+      // The bulk refers to the mapped file, aligned for its element type.
+      EXPECT_TRUE(b.signatures.referring());
+      EXPECT_TRUE(b.spectra.coefficients.referring());
+      EXPECT_TRUE(b.spectra.magnitudes.referring());
+      EXPECT_EQ(reinterpret_cast<uintptr_t>(b.signatures.data()) % 64, 0u);
+      EXPECT_EQ(reinterpret_cast<uintptr_t>(b.spectra.coefficients.data()) % 64, 0u);
+      EXPECT_EQ(a.signatures, b.signatures);
+      EXPECT_EQ(b.spectra.harmonics, 3u);
+      EXPECT_EQ(b.spectra.smoothing_deg, 2.0);
+      EXPECT_EQ(a.spectra.kinds, b.spectra.kinds);
+      EXPECT_EQ(a.spectra.coefficients, b.spectra.coefficients);
+      EXPECT_EQ(a.spectra.magnitudes, b.spectra.magnitudes);
+      EXPECT_EQ(b.signature_hashes.size(), 2u);
+      EXPECT_EQ(b.magnitude_hashes.size(), 2u);
+    }
+    // A copy shares the mapping and outlives the original; writing to it copies (never the file).
+    ViewDatabase copy = loaded;
+    EXPECT_EQ(copy.models[0].signatures.data(), loaded.models[0].signatures.data());
+    copy.models[0].MutableSignature(0)[0] = 7.0f;
+    EXPECT_FALSE(copy.models[0].signatures.referring());
+    EXPECT_NE(loaded.models[0].Signature(0)[0], 7.0f);
+    EXPECT_EQ(loaded.Serialize(), original.Serialize());
+    // Older formats are written and read too.
+    for (uint32_t version : {2u, 3u}) {
+      const ViewDatabase old = ViewDatabase::Deserialize(loaded.Serialize(version), "old.db");
+      EXPECT_TRUE(old.models[1].spectra.empty());
+      EXPECT_EQ(old.models[1].signatures, original.models[1].signatures);
+    }
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {
+  const std::string bytes = SmallDatabaseWithSpectra().Serialize();
+  ASSERT_EQ(LazyErrorOf(bytes), "");
+  // The whole file's checksum (the last 8 bytes) is only read by ViewChecks::kAtOpen.
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) {
+    std::string corrupt = bytes;
+    corrupt[i] = static_cast<char>(corrupt[i] ^ 0x10);
+    const std::string message = LazyErrorOf(corrupt);
+    ASSERT_FALSE(message.empty()) << "byte " << i << " changed, file accepted";
+    ASSERT_EQ(message.rfind("test.db: ", 0), 0u) << message;
+  }
+}
+
+TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
+  const std::string bytes = SmallDatabaseWithSpectra().Serialize();
+  const auto open = [](const std::string& data) {
+    const auto keep = std::make_shared<std::string>(data);
+    return ViewDatabase::Deserialize(*keep, "test.db", ViewChecks::kOnFirstUse, keep);
+  };
+  const auto error_of = [](auto&& use) -> std::string {
+    try {
+      use();
+    } catch (const Error& error) {
+      return error.what();
+    }
+    return "";
+  };
+  // Where model beta's shell-1 signatures and shell-0 magnitudes lie in the file.
+  const auto keep = std::make_shared<std::string>(bytes);
+  const ViewDatabase good =
+      ViewDatabase::Deserialize(*keep, "test.db", ViewChecks::kOnFirstUse, keep);
+  const auto offset = [&](const void* p) {
+    return static_cast<size_t>(static_cast<const char*>(p) - keep->data());
+  };
+  const size_t signature = offset(good.models[1].Signature(0, 1).data());
+  const size_t magnitude = offset(good.models[1].spectra.magnitudes.data());
+  for (const auto& [at, shell, block, name] :
+       {std::tuple{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
+        std::tuple{magnitude + 3, 0, ViewBlock::kMagnitudes, "stored spectrum magnitudes"}}) {
+    std::string corrupt = bytes;
+    corrupt[at] = static_cast<char>(corrupt[at] ^ 0x10);
+    // Opens (only the structure is checked at once), and every other block is fine.
+    const ViewDatabase database = open(corrupt);
+    EXPECT_EQ(error_of([&] { database.CheckBlock(0, shell, block); }), "");
+    EXPECT_EQ(error_of([&] { database.CheckBlock(1, 1 - shell, block); }), "");
+    const std::string message = error_of([&] { database.CheckBlock(1, shell, block); });
+    EXPECT_NE(
+        message.find("test.db: corrupt database (checksum mismatch in the " + std::string(name) +
+                     " of model 'beta', shell " + std::to_string(shell) + ")"),
+        std::string::npos)
+        << message;
+    // Read at once, the whole file's checksum refuses it.
+    EXPECT_NE(ErrorOf(corrupt).find("checksum mismatch"), std::string::npos);
+  }
+  // Impossible values behind valid checksums (a crafted file) are refused when the view is used.
+  ViewDatabase crafted = SmallDatabaseWithSpectra();
+  crafted.models[0].spectra.magnitudes.mutable_data()[3 * 7 + 1] =
+      std::numeric_limits<float>::infinity();
+  const ViewDatabase opened = open(crafted.Serialize());
+  EXPECT_EQ(error_of([&] { opened.CheckView(0, 6); }), "");
+  EXPECT_NE(error_of([&] { opened.CheckView(0, 7); })
+                .find("test.db: corrupt database: model 'alpha' view 7 of shell 0 has an invalid "
+                      "stored spectrum value"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(crafted.Serialize()).find("invalid stored spectrum value"), std::string::npos);
+}
+
 TEST(ViewDatabaseFile, EveryTruncationIsRefused) {
   const std::string bytes = SmallDatabase().Serialize();
   for (size_t length = 0; length < bytes.size(); ++length) {
@@ -258,8 +420,8 @@ TEST(ViewDatabaseFile, InconsistentContentBehindAValidChecksumIsRefused) {
   Recompute(&wrong_views);
   EXPECT_NE(ErrorOf(wrong_views).find("corrupt"), std::string::npos);
 
-  // A NaN in the last signature value.
-  std::string nan_signature = bytes;
+  // A NaN in the last signature value (format 3 ends with the signatures).
+  std::string nan_signature = SmallDatabase().Serialize(3);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::memcpy(nan_signature.data() + nan_signature.size() - 12, &nan, 4);
   Recompute(&nan_signature);
@@ -278,7 +440,8 @@ TEST(ViewDatabaseFile, NonFiniteCentresAndModelsWithoutAUsableViewAreRefused) {
   // A model none of whose views has a silhouette (what a degenerate mesh gives).
   ViewDatabase empty = SmallDatabase();
   for (ViewRecord& view : empty.models[0].views) view.status = SignatureStatus::kEmpty;
-  std::fill(empty.models[0].signatures.begin(), empty.models[0].signatures.end(), 0.0f);
+  const std::span<float> radii = empty.models[0].signatures.mutable_span();
+  std::fill(radii.begin(), radii.end(), 0.0f);
   bytes = empty.Serialize();
   EXPECT_NE(ErrorOf(bytes).find("model 'alpha' has no view with a usable silhouette"),
             std::string::npos)

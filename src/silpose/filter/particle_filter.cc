@@ -154,7 +154,7 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
         ranking_harmonics_ = std::min<Eigen::Index>(
-            kRankingHarmonics, static_cast<Eigen::Index>(spectra.Get(m, v).magnitudes.size()));
+            kRankingHarmonics, static_cast<Eigen::Index>(spectra.Magnitudes(m, v).size()));
         break;
       }
     }
@@ -163,10 +163,16 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
     for (int m = 0; m < num_objects_; ++m) {
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
-        const std::vector<float>& magnitudes = spectra.Get(m, v).magnitudes;
+        std::span<const float> magnitudes = spectra.Magnitudes(m, v);
+        bool valid = true;
         for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
-          ranking_table_[static_cast<size_t>(m)](k, v) = magnitudes[static_cast<size_t>(k)];
+          const float value = magnitudes[static_cast<size_t>(k)];
+          valid = valid && value >= 0.0f && value <= 1.0f;  // false for NaN too
+          ranking_table_[static_cast<size_t>(m)](k, v) = value;
         }
+        // Stored magnitudes are read in place unchecked: Get checks the view's values (and throws
+        // for a corrupt file).
+        if (!valid) (void)spectra.Get(m, v);
       }
     }
   }

@@ -115,29 +115,30 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
   for (size_t x = 0; x < radii.size(); ++x) {
     real_scratch_[x] = static_cast<float>((radii[x] - mean) * scale);
   }
-  fft_->Forward(real_scratch_.data(), spectrum->coefficients.data());
-  spectrum->coefficients[0] = {0.0f, 0.0f};  // exactly zero mean
+  const std::span<std::complex<float>> coefficients = spectrum->coefficients.mutable_span();
+  fft_->Forward(real_scratch_.data(), coefficients.data());
+  coefficients[0] = {0.0f, 0.0f};  // exactly zero mean
   if (options_.smoothing_deg > 0.0) {
     // Smoothing changes the norm: restore unit norm through Parseval (e(0) of the signature with
     // itself is the weighted sum of its squared coefficients).
     double energy = 0.0;
     for (size_t k = 1; k < half; ++k) {
-      spectrum->coefficients[k] *= window_[k];
-      energy += ((k == half - 1) ? 1.0 : 2.0) * std::norm(spectrum->coefficients[k]);
+      coefficients[k] *= window_[k];
+      energy += ((k == half - 1) ? 1.0 : 2.0) * std::norm(coefficients[k]);
     }
     if (!(energy > 1e-20)) {
       spectrum->has_variance = false;
-      std::fill(spectrum->coefficients.begin(), spectrum->coefficients.end(),
-                std::complex<float>(0.0f, 0.0f));
+      std::fill(coefficients.begin(), coefficients.end(), std::complex<float>(0.0f, 0.0f));
       return;
     }
     const auto renormalise = static_cast<float>(1.0 / std::sqrt(energy));
-    for (auto& c : spectrum->coefficients) c *= renormalise;
+    for (auto& c : coefficients) c *= renormalise;
   }
   // Harmonics the smoothing removed contribute nothing to the bound: they are left out of it.
+  float* magnitudes = spectrum->magnitudes.mutable_data();
   for (size_t k = 0; k < bound_length_; ++k) {
     const float weight = (!weighted || k == 0 || k == half - 1) ? 1.0f : 2.0f;
-    spectrum->magnitudes[k] = weight * std::abs(spectrum->coefficients[k]);
+    magnitudes[k] = weight * std::abs(coefficients[k]);
   }
 }
 

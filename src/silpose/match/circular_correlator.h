@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "silpose/match/real_fft.h"
+#include "silpose/util/shared_array.h"
 
 namespace silpose {
 
@@ -41,11 +42,12 @@ struct SignatureSpectrum {
   /// M/2 + 1 coefficients of the zero-mean, smoothed, unit-norm signature, scaled by 1/sqrt(M).
   /// Smoothing makes the ones from CircularCorrelator::harmonics() on exactly 0: a spectrum may
   /// keep only the first harmonics() (ViewSpectra stores them so) and correlates the same.
-  std::vector<std::complex<float>> coefficients;
+  /// A database view's spectrum may refer to the mapped database file (util/shared_array.h).
+  SharedArray<std::complex<float>> coefficients;
   /// |coefficients[k]| for the harmonics the smoothing keeps, weighted by how often bin k occurs
   /// in the full spectrum (1 for k = 0 and k = M/2, 2 otherwise) when `weighted` was asked for; the
   /// dot product of a weighted and an unweighted magnitude vector is the upper bound above.
-  std::vector<float> magnitudes;
+  SharedArray<float> magnitudes;
   /// False if the signature was constant (no variance): every correlation with it is 0.
   bool has_variance = false;
 };

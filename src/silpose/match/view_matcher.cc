@@ -25,6 +25,22 @@ bool MatchOptions::Check(std::string* error) const {
   return false;
 }
 
+namespace {
+
+// A view is searched if its silhouette was described and has a shape (not a perfect circle):
+// radii with no spread are constant after normalisation.
+bool UsableSignature(const ModelViews& model, int view, int shell) {
+  if (model.Record(view, shell).status != SignatureStatus::kOk) return false;
+  float low = 1.0f, high = 1.0f;
+  for (float r : model.Signature(view, shell)) {
+    low = std::min(low, r);
+    high = std::max(high, r);
+  }
+  return high - low > 1e-6f;
+}
+
+}  // namespace
+
 ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions& options)
     : database_(database),
       options_(options),
@@ -33,43 +49,87 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
       num_shells_(database.num_shells()),
       signature_length_(database.parameters.signature.length) {
   const size_t blocks = static_cast<size_t>(num_models_) * static_cast<size_t>(num_shells_);
-  spectra_.resize(blocks * static_cast<size_t>(num_views_));
-  once_ = std::make_unique<std::once_flag[]>(spectra_.size());
-  usable_.assign(spectra_.size(), 0);
-  apparent_.assign(usable_.size(), 0.0f);
+  const size_t total = blocks * static_cast<size_t>(num_views_);
+  blocks_.resize(blocks);
+  block_once_ = std::make_unique<std::once_flag[]>(blocks);
+  magnitudes_once_ = std::make_unique<std::once_flag[]>(blocks);
+  once_ = std::make_unique<std::once_flag[]>(total);
+  usable_.assign(total, 0);
+  apparent_.assign(total, 0.0f);
+  // ViewDatabase::ApparentRadius with each shell's focal length computed once.
+  std::vector<double> focal(static_cast<size_t>(num_shells_));
+  for (int s = 0; s < num_shells_; ++s) {
+    focal[static_cast<size_t>(s)] = ViewCamera(database.parameters.ShellRender(s)).focal_x_px;
+  }
+  stored_.assign(static_cast<size_t>(num_models_), 0);
+  const size_t harmonics = CircularCorrelator(signature_length_, options_).harmonics();
   for (int m = 0; m < num_models_; ++m) {
     const ModelViews& model = database.models[static_cast<size_t>(m)];
     if (model.views.size() != static_cast<size_t>(num_views_) * static_cast<size_t>(num_shells_)) {
       ThrowError("model '", model.name, "' has ", model.views.size(), " view records, expected ",
                  num_views_, " views x ", num_shells_, " shells");
     }
+    // Stored spectra serve only a matcher with the smoothing they were made with.
+    const StoredSpectra& stored = model.spectra;
+    stored_[static_cast<size_t>(m)] = !stored.empty() && stored.harmonics == harmonics &&
+                                      stored.smoothing_deg == options_.smoothing_deg;
     for (int s = 0; s < num_shells_; ++s) {
       for (int v = 0; v < num_views_; ++v) {
         const size_t index = Index(m, s) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
-        // A view is searched if its silhouette was described and has a shape (not a perfect
-        // circle): radii with no spread are constant after normalisation.
-        const ViewRecord& record = model.Record(v, s);
-        usable_[index] = record.status == SignatureStatus::kOk;
-        if (usable_[index]) {
-          float low = 1.0f, high = 1.0f;
-          for (float r : model.Signature(v, s)) {
-            low = std::min(low, r);
-            high = std::max(high, r);
-          }
-          usable_[index] = high - low > 1e-6f;
+        const size_t record =
+            static_cast<size_t>(s) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
+        if (stored_[static_cast<size_t>(m)] != 0) {
+          usable_[index] = (stored.kinds[record] & StoredSpectra::kUsable) != 0;
+        } else {
+          usable_[index] = UsableSignature(model, v, s);
         }
-        apparent_[index] = static_cast<float>(database.ApparentRadius(m, v, s));
+        const ViewRecord& view_record = model.views[record];
+        apparent_[index] =
+            view_record.status == SignatureStatus::kOk
+                ? static_cast<float>(view_record.mean_radius_px / focal[static_cast<size_t>(s)])
+                : 0.0f;
       }
     }
   }
-  table_bytes_ = spectra_.capacity() * sizeof(SignatureSpectrum) +
-                 spectra_.size() * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
-                 apparent_.capacity() * sizeof(float);
+  table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + 2 * blocks * sizeof(std::once_flag) +
+                 total * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
+                 stored_.capacity() + apparent_.capacity() * sizeof(float);
 }
 
-void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
+void ViewSpectra::OpenBlock(int model, int shell) const {
+  if (database_.views_unchecked) {
+    database_.CheckBlock(model, shell, ViewBlock::kSignatures);
+    if (stored_[static_cast<size_t>(model)] != 0) {
+      database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
+      (void)Magnitudes(model, 0, shell);  // checks the magnitudes once
+    }
+  }
+  blocks_[Index(model, shell)] =
+      std::make_unique<SignatureSpectrum[]>(static_cast<size_t>(num_views_));
+  spectrum_bytes_.fetch_add(static_cast<size_t>(num_views_) * sizeof(SignatureSpectrum),
+                            std::memory_order_relaxed);
+}
+
+void ViewSpectra::Compute(int model, int view, int shell) const {
   const ModelViews& views = database_.models[static_cast<size_t>(model)];
+  const size_t record =
+      static_cast<size_t>(shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
+  // A database read with ViewChecks::kOnFirstUse: this view's values are checked now (throws
+  // silpose::Error naming the file; call_once lets the next Get try, and fail, again).
+  if (database_.views_unchecked) database_.CheckView(model, record);
   if (views.Record(view, shell).status != SignatureStatus::kOk) return;
+  if (stored_[static_cast<size_t>(model)] != 0) {
+    // The database's own spectrum, where the file is mapped: nothing made, nothing copied.
+    const StoredSpectra& stored = views.spectra;
+    SignatureSpectrum& spectrum = blocks_[Index(model, shell)][static_cast<size_t>(view)];
+    spectrum.coefficients = SharedArray<std::complex<float>>::Refer(
+        stored.coefficients.data() + record * stored.harmonics, stored.harmonics);
+    spectrum.magnitudes = SharedArray<float>::Refer(
+        stored.magnitudes.data() + record * stored.harmonics, stored.harmonics);
+    spectrum.has_variance = (stored.kinds[record] & StoredSpectra::kHasVariance) != 0;
+    num_computed_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   // One correlator per thread: the FFT plan and scratch are reused across views.
   thread_local std::unique_ptr<CircularCorrelator> correlator;
   thread_local SignatureSpectrum full;
@@ -81,19 +141,18 @@ void ViewSpectra::Compute(int model, int view, int shell, size_t index) const {
   correlator->Transform(views.Signature(view, shell), &full);
   // Only the harmonics the smoothing keeps: the others are exactly 0 and the correlator treats
   // left-out coefficients as 0. assign() into the empty vectors allocates their exact size.
-  SignatureSpectrum& stored = spectra_[index];
+  SignatureSpectrum& stored = blocks_[Index(model, shell)][static_cast<size_t>(view)];
   const auto kept = static_cast<std::ptrdiff_t>(correlator->harmonics());
   stored.coefficients.assign(full.coefficients.begin(), full.coefficients.begin() + kept);
   stored.magnitudes.assign(full.magnitudes.begin(), full.magnitudes.end());
   stored.has_variance = full.has_variance;
   num_computed_.fetch_add(1, std::memory_order_relaxed);
-  spectrum_bytes_.fetch_add(stored.coefficients.capacity() * sizeof(std::complex<float>) +
-                                stored.magnitudes.capacity() * sizeof(float),
+  spectrum_bytes_.fetch_add(stored.coefficients.owned_bytes() + stored.magnitudes.owned_bytes(),
                             std::memory_order_relaxed);
 }
 
 void ViewSpectra::ComputeAll(int num_threads) const {
-  const size_t total = spectra_.size();
+  const size_t total = usable_.size();
   const size_t per_model = static_cast<size_t>(num_shells_) * static_cast<size_t>(num_views_);
   // Views are handed out in chunks from a shared counter; a failure stops every worker and is
   // rethrown here.
@@ -131,6 +190,46 @@ void ViewSpectra::ComputeAll(int num_threads) const {
   work();
   for (std::thread& worker : workers) worker.join();
   if (failure) std::rethrow_exception(failure);
+}
+
+void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options, int num_threads) {
+  // Drop what was stored, so that the spectra below are computed, not lent.
+  for (ModelViews& model : database->models) model.spectra = StoredSpectra{};
+  const ViewSpectra spectra(*database, options);
+  spectra.ComputeAll(num_threads);
+  const size_t harmonics = CircularCorrelator(database->signature_length(), options).harmonics();
+  const int views = database->num_views();
+  for (int m = 0; m < spectra.num_models(); ++m) {
+    ModelViews& model = database->models[static_cast<size_t>(m)];
+    const size_t records = model.views.size();
+    std::vector<uint8_t> kinds(records, 0);
+    std::vector<std::complex<float>> coefficients(records * harmonics);
+    std::vector<float> magnitudes(records * harmonics);
+    for (size_t r = 0; r < records; ++r) {
+      const int view = static_cast<int>(r % static_cast<size_t>(views));
+      const int shell = static_cast<int>(r / static_cast<size_t>(views));
+      const SignatureSpectrum& spectrum = spectra.Get(m, view, shell);
+      if (model.views[r].status != SignatureStatus::kOk) continue;
+      SILPOSE_ASSERT(spectrum.coefficients.size() == harmonics &&
+                     spectrum.magnitudes.size() == harmonics);
+      kinds[r] = StoredSpectra::kPresent |
+                 (spectrum.has_variance ? StoredSpectra::kHasVariance : uint8_t{0}) |
+                 (spectra.Usable(m, view, shell) ? StoredSpectra::kUsable : uint8_t{0});
+      std::copy(spectrum.coefficients.begin(), spectrum.coefficients.end(),
+                coefficients.begin() + static_cast<std::ptrdiff_t>(r * harmonics));
+      std::copy(spectrum.magnitudes.begin(), spectrum.magnitudes.end(),
+                magnitudes.begin() + static_cast<std::ptrdiff_t>(r * harmonics));
+    }
+    // `spectra` made every view's spectrum from the signatures above: replacing this model's stored
+    // spectra changes none of them.
+    StoredSpectra stored;
+    stored.smoothing_deg = options.smoothing_deg;
+    stored.harmonics = static_cast<uint32_t>(harmonics);
+    stored.kinds = std::move(kinds);
+    stored.coefficients = std::move(coefficients);
+    stored.magnitudes = std::move(magnitudes);
+    model.spectra = std::move(stored);
+  }
 }
 
 int ViewSpectra::ChooseShell(int model, int view, double apparent_radius) const {
@@ -200,9 +299,13 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
       for (int v = 0; v < spectra_.num_views(); ++v) {
         const int shell = spectra_.ChooseShell(m, v, options.apparent_radius);
         if (!spectra_.Usable(m, v, shell)) continue;
-        bounds.push_back(
-            {CorrelationUpperBound(query_.magnitudes, spectra_.Get(m, v, shell).magnitudes), m, v,
-             shell});
+        float bound = CorrelationUpperBound(query_.magnitudes, spectra_.Magnitudes(m, v, shell));
+        if (!(bound <= 1.5f)) {
+          // Impossible for a valid spectrum (bounds are at most 1 plus rounding): Get checks the
+          // view's values and names the corrupt file; if they pass, the bound is the true one's.
+          bound = CorrelationUpperBound(query_.magnitudes, spectra_.Get(m, v, shell).magnitudes);
+        }
+        bounds.push_back({bound, m, v, shell});
       }
     }
     stats_.views_bounded = static_cast<int>(bounds.size());

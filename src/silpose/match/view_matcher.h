@@ -53,7 +53,10 @@ struct MatchStats {
   int views_correlated = 0;
 };
 
-/// Holds the spectra of every database view, in every distance shell. A view's spectrum is
+/// Holds the spectra of every database view, in every distance shell. A database written with its
+/// spectra (StoreViewSpectra, as build-db does) lends them where the file is mapped: nothing is
+/// transformed or copied, and a view's values are checked when it is first used
+/// (ViewDatabase::CheckView). Otherwise a view's spectrum is
 /// computed when it is first used (one FFT; thread-safe), so a sequence seen at one distance never
 /// pays for the other shells, and a particle filter only for the views its particles visit; or all
 /// at once by ComputeAll, for memory that no longer grows while tracking. A spectrum keeps only the
@@ -72,18 +75,43 @@ class ViewSpectra {
   /// The spectrum of a view (made now if it was not yet). Views whose silhouette could not be
   /// described (ViewRecord::status) have an empty one.
   const SignatureSpectrum& Get(int model, int view, int shell = 0) const {
-    const size_t index =
-        Index(model, shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
-    std::call_once(once_[index], [&] { Compute(model, view, shell, index); });
-    return spectra_[index];
+    const size_t block = Index(model, shell);
+    const size_t index = block * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
+    // The spectra of one (model, shell) are allocated when the first of them is used (and the
+    // block's data checked against its checksums, for a database read with
+    // ViewChecks::kOnFirstUse).
+    std::call_once(block_once_[block], [&] { OpenBlock(model, shell); });
+    std::call_once(once_[index], [&] { Compute(model, view, shell); });
+    return blocks_[block][static_cast<size_t>(view)];
+  }
+  /// The spectrum's magnitudes (SignatureSpectrum::magnitudes) of a usable view, for bounds and
+  /// rankings that visit every view: read in place from stored spectra (nothing made, the view's
+  /// values not checked: a caller that finds a non-finite or impossible bound from them calls Get,
+  /// which checks), else Get(...).magnitudes.
+  std::span<const float> Magnitudes(int model, int view, int shell = 0) const {
+    if (stored_[static_cast<size_t>(model)] != 0) {
+      if (database_.views_unchecked) {
+        std::call_once(magnitudes_once_[Index(model, shell)],
+                       [&] { database_.CheckBlock(model, shell, ViewBlock::kMagnitudes); });
+      }
+      const StoredSpectra& stored = database_.models[static_cast<size_t>(model)].spectra;
+      const size_t record =
+          static_cast<size_t>(shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
+      return {stored.magnitudes.data() + record * stored.harmonics, stored.harmonics};
+    }
+    return Get(model, view, shell).magnitudes.span();
   }
   /// Makes the spectra of every view of every model and shell not made yet, on `num_threads`
   /// threads (0 = all available cores; util/threads.h). Thread-safe with Get; the spectra are the
   /// ones Get makes. Afterwards Get allocates nothing.
   void ComputeAll(int num_threads = 0) const;
+  /// True if the spectra of model `model` come from the database file (StoredSpectra).
+  bool Stored(int model) const { return stored_[static_cast<size_t>(model)] != 0; }
   /// Spectra made so far (views whose silhouette was described; see Get).
   size_t num_computed() const { return num_computed_.load(std::memory_order_relaxed); }
-  /// Bytes this object holds: its tables (sized at construction) and the spectra made so far.
+  /// Bytes this object holds: its tables (sized at construction), the spectrum slots of every
+  /// (model, shell) used so far and the spectra made so far (stored spectra lent by the database
+  /// are not counted: they are the mapped file's).
   size_t MemoryBytes() const {
     return table_bytes_ + spectrum_bytes_.load(std::memory_order_relaxed);
   }
@@ -106,7 +134,8 @@ class ViewSpectra {
     return static_cast<size_t>(model) * static_cast<size_t>(num_shells_) +
            static_cast<size_t>(shell);
   }
-  void Compute(int model, int view, int shell, size_t index) const;
+  void Compute(int model, int view, int shell) const;
+  void OpenBlock(int model, int shell) const;
 
   const ViewDatabase& database_;
   CorrelationOptions options_;
@@ -114,10 +143,15 @@ class ViewSpectra {
   int num_views_;
   int num_shells_;
   int signature_length_;
-  /// Per (model, shell, view): its spectrum, made on first use.
-  mutable std::vector<SignatureSpectrum> spectra_;
+  /// Per (model, shell): its views' spectra (allocated on first use), each made on first use.
+  mutable std::vector<std::unique_ptr<SignatureSpectrum[]>> blocks_;
+  std::unique_ptr<std::once_flag[]> block_once_;
+  /// Per (model, shell): its stored magnitudes checked (ViewChecks::kOnFirstUse).
+  std::unique_ptr<std::once_flag[]> magnitudes_once_;
   std::unique_ptr<std::once_flag[]> once_;
   std::vector<uint8_t> usable_;
+  /// Per model: whether its spectra are the database's stored ones.
+  std::vector<uint8_t> stored_;
   /// Per (model, shell, view): ViewDatabase::ApparentRadius.
   std::vector<float> apparent_;
   /// Bytes of the tables above.
@@ -126,6 +160,12 @@ class ViewSpectra {
   mutable std::atomic<size_t> num_computed_{0};
   mutable std::atomic<size_t> spectrum_bytes_{0};
 };
+
+/// Computes the spectra of every view of every model (as ViewSpectra would with `options`) into
+/// ModelViews::spectra, so that written databases carry them (build-db does this), on
+/// `num_threads` threads (0 = all available cores). Replaces spectra stored before.
+void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options = {},
+                      int num_threads = 0);
 
 class ViewMatcher {
  public:

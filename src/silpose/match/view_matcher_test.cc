@@ -1,10 +1,13 @@
 #include "silpose/match/view_matcher.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <thread>
@@ -243,7 +246,7 @@ SyntheticDatabase MakeTwoShellDatabase(int num_models, int num_views, int length
   ViewDatabase& database = synthetic.database;
   database.parameters.distances_in_radii = {3.0, 6.0};
   for (ModelViews& model : database.models) {
-    const std::vector<float> shell0 = model.signatures;
+    const std::vector<float> shell0 = model.signatures.ToVector();
     model.views_per_shell = num_views;
     model.views.resize(2 * model.views.size(), model.views.front());
     model.signatures.resize(2 * shell0.size());
@@ -403,21 +406,24 @@ TEST(ViewSpectra, MemoryAccountingCountsTheTablesAndEachSpectrumMade) {
   const ViewSpectra spectra(synthetic.database);
   const size_t records = 2 * 2 * 50;
   const size_t tables = spectra.MemoryBytes();
-  EXPECT_GE(tables, records * (sizeof(SignatureSpectrum) + sizeof(float) + 1));
-  EXPECT_LT(tables, records * (sizeof(SignatureSpectrum) + 64));
-  // One spectrum: 151 coefficients and 151 magnitudes at M = 1000 and 2 degrees of smoothing.
+  // Per record: a usable flag, an apparent radius and a once flag; no spectrum slot yet.
+  EXPECT_GE(tables, records * (sizeof(float) + 1 + sizeof(std::once_flag)));
+  EXPECT_LT(tables, records * (sizeof(SignatureSpectrum) / 2 + 16));
+  // One spectrum: 151 coefficients and 151 magnitudes at M = 1000 and 2 degrees of smoothing;
+  // the first of a (model, shell) also makes that block's 50 slots.
   const size_t per_spectrum = 151 * (sizeof(std::complex<float>) + sizeof(float));
+  const size_t per_block = 50 * sizeof(SignatureSpectrum);
   (void)spectra.Get(1, 10, 1);
   EXPECT_EQ(spectra.num_computed(), 1u);
-  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + per_block + per_spectrum);
   (void)spectra.Get(1, 10, 1);  // made once
-  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
-  (void)spectra.Get(0, 3, 1);  // unusable: nothing made
+  EXPECT_EQ(spectra.MemoryBytes(), tables + per_block + per_spectrum);
+  (void)spectra.Get(0, 3, 1);  // unusable: nothing made, but its block's slots exist
   EXPECT_EQ(spectra.num_computed(), 1u);
-  EXPECT_EQ(spectra.MemoryBytes(), tables + per_spectrum);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + 2 * per_block + per_spectrum);
   spectra.ComputeAll();
   EXPECT_EQ(spectra.num_computed(), records - 1);
-  EXPECT_EQ(spectra.MemoryBytes(), tables + (records - 1) * per_spectrum);
+  EXPECT_EQ(spectra.MemoryBytes(), tables + 4 * per_block + (records - 1) * per_spectrum);
   // Less than a third of the full spectra's 501 coefficients and magnitudes.
   EXPECT_LT(per_spectrum * 3, 501 * (sizeof(std::complex<float>) + sizeof(float)));
 }
@@ -429,6 +435,114 @@ TEST(ViewMatcher, BadQueriesAndOptionsAreErrors) {
   EXPECT_THROW(matcher.Match(std::vector<float>(63, 1.0f)), Error);
   EXPECT_THROW(matcher.Match(std::vector<float>(64, 1.0f), {.top_k = 0}), Error);
   EXPECT_THROW(matcher.Match(std::vector<float>(64, 1.0f), {.models = {1}}), Error);
+}
+
+}  // namespace
+}  // namespace silpose
+
+namespace silpose {
+namespace {
+
+// Hand-made databases have no model extent; a file needs one.
+void GiveModelsAnExtent(ViewDatabase* database) {
+  for (ModelViews& model : database->models) model.radius = 1.0;
+}
+
+std::filesystem::path TemporaryDatabasePath(const std::string& name) {
+  return std::filesystem::temp_directory_path() /
+         ("silpose_" + name + "_" + std::to_string(::getpid()) + ".db");
+}
+
+TEST(ViewSpectra, StoredSpectraAreLentFromTheFileAndEqualTheComputedOnes) {
+  SyntheticDatabase synthetic = MakeTwoShellDatabase(3, 60, 1000, 31);
+  GiveModelsAnExtent(&synthetic.database);
+  const ViewDatabase plain = synthetic.database;  // without stored spectra
+  StoreViewSpectra(&synthetic.database, CorrelationOptions{}, 2);
+  const auto path = TemporaryDatabasePath("stored_spectra");
+  synthetic.database.Write(path);
+  const ViewDatabase read = ViewDatabase::Read(path);
+  std::filesystem::remove(path);  // the mapping outlives the file's name
+  const ViewSpectra stored(read);
+  const ViewSpectra computed(plain);
+  for (int m = 0; m < 3; ++m) {
+    EXPECT_TRUE(stored.Stored(m));
+    EXPECT_FALSE(computed.Stored(m));
+    for (int s = 0; s < 2; ++s) {
+      for (int v = 0; v < 60; ++v) {
+        ASSERT_EQ(stored.Usable(m, v, s), computed.Usable(m, v, s)) << m << " " << v << " " << s;
+        const SignatureSpectrum& lent = stored.Get(m, v, s);
+        ExpectSameSpectrum(lent, computed.Get(m, v, s));
+        EXPECT_EQ(lent.has_variance, computed.Get(m, v, s).has_variance);
+        if (stored.Usable(m, v, s)) {
+          EXPECT_TRUE(lent.coefficients.referring());
+          const std::span<const float> magnitudes = stored.Magnitudes(m, v, s);
+          EXPECT_TRUE(std::equal(magnitudes.begin(), magnitudes.end(), lent.magnitudes.begin()));
+        }
+      }
+    }
+  }
+  EXPECT_EQ(stored.num_computed(), computed.num_computed());
+  // The lent spectra are not counted as this object's memory.
+  EXPECT_LT(stored.MemoryBytes(), computed.MemoryBytes() / 4);
+  // Matching through either gives the same candidates.
+  ViewMatcher from_file(stored);
+  ViewMatcher from_memory(computed);
+  std::mt19937 rng(5);
+  for (int query = 0; query < 5; ++query) {
+    const std::vector<float> radii = RandomSignature(rng, 1000, 37.0 * query);
+    MatchOptions options;
+    options.apparent_radius = 0.1;
+    const std::vector<MatchCandidate> a = from_file.Match(radii, options);
+    const std::vector<MatchCandidate> b = from_memory.Match(radii, options);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].model, b[i].model);
+      EXPECT_EQ(a[i].view, b[i].view);
+      EXPECT_EQ(a[i].shell, b[i].shell);
+      EXPECT_EQ(a[i].score, b[i].score);
+      EXPECT_EQ(a[i].roll_deg, b[i].roll_deg);
+    }
+  }
+  // A matcher with another smoothing computes its own spectra.
+  CorrelationOptions other;
+  other.smoothing_deg = 1.0;
+  const ViewSpectra resmoothed(read, other);
+  EXPECT_FALSE(resmoothed.Stored(0));
+  ExpectSameSpectrum(resmoothed.Get(1, 4, 0), ViewSpectra(plain, other).Get(1, 4, 0));
+}
+
+TEST(ViewSpectra, ACorruptStoredSpectrumIsNamedWhenTheMatcherFirstUsesIt) {
+  SyntheticDatabase synthetic = MakeDatabase(2, 40, 1000, 32);
+  GiveModelsAnExtent(&synthetic.database);
+  StoreViewSpectra(&synthetic.database);
+  // A crafted file: an impossible value behind valid checksums.
+  const uint32_t harmonics = synthetic.database.models[1].spectra.harmonics;
+  synthetic.database.models[1].spectra.magnitudes.mutable_data()[harmonics * 7 + 2] =
+      std::numeric_limits<float>::quiet_NaN();
+  const auto path = TemporaryDatabasePath("corrupt_spectra");
+  synthetic.database.Write(path);
+  const std::string expected = path.string() +
+                               ": corrupt database: model 'model1' view 7 of shell 0 has an "
+                               "invalid stored spectrum value";
+  {
+    const ViewDatabase read = ViewDatabase::Read(path);  // opens: values are checked when used
+    const ViewSpectra spectra(read);
+    ViewMatcher matcher(spectra);
+    std::mt19937 rng(6);
+    try {
+      (void)matcher.Match(RandomSignature(rng, 1000));
+      ADD_FAILURE() << "a corrupt spectrum was matched";
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
+  }
+  try {
+    (void)ViewDatabase::Read(path, ViewChecks::kAtOpen);
+    ADD_FAILURE() << "a corrupt spectrum was read";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+  }
+  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -36,3 +36,23 @@ TEST(Hash, MissingFileNamesTheFile) {
 
 }  // namespace
 }  // namespace silpose
+
+namespace silpose {
+namespace {
+
+TEST(Hash, HasherOfPiecesEqualsTheHashOfTheirConcatenation) {
+  const std::string text = "the quick brown fox jumps over the lazy dog, twice over";
+  for (size_t cut = 0; cut <= text.size(); cut += 7) {
+    Hasher hasher;
+    hasher.Update(text.data(), cut);
+    hasher.Update(text.data() + cut, text.size() - cut);
+    EXPECT_EQ(hasher.Digest(), HashBytes(text.data(), text.size())) << cut;
+  }
+  Hasher seeded(42);
+  seeded.Update(text.data(), text.size());
+  EXPECT_EQ(seeded.Digest(), HashBytes(text.data(), text.size(), 42));
+  EXPECT_NE(seeded.Digest(), HashBytes(text.data(), text.size()));
+}
+
+}  // namespace
+}  // namespace silpose
