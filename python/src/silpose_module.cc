@@ -558,6 +558,10 @@ void BindDatabase(py::module_& m) {
          std::optional<std::filesystem::path> out) {
         py::gil_scoped_release release;
         ViewDatabase database = MergeViewDatabases(paths);
+        if (std::any_of(database.models.begin(), database.models.end(),
+                        [](const ModelViews& model) { return model.spectra.empty(); })) {
+          StoreViewSpectra(&database);
+        }
         if (out) database.Write(*out);
         return database;
       },

@@ -1,9 +1,11 @@
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
 
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_merge.h"
+#include "silpose/match/view_matcher.h"
 #include "silpose/util/error.h"
 
 namespace silpose::cli {
@@ -25,7 +27,12 @@ void RunMergeDb(const MergeDbArguments& arguments) {
                  "another file");
     }
   }
-  const ViewDatabase merged = MergeViewDatabases(paths);
+  ViewDatabase merged = MergeViewDatabases(paths);
+  // Databases of format 3 have no stored spectra: the merged file gets them (fast to open).
+  if (std::any_of(merged.models.begin(), merged.models.end(),
+                  [](const ModelViews& model) { return model.spectra.empty(); })) {
+    StoreViewSpectra(&merged);
+  }
   merged.Write(arguments.output);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
