@@ -12,6 +12,21 @@
 #include "silpose/match/view_matcher.h"
 #include "silpose/util/hash.h"
 
+namespace {
+
+// What a reader does next with a database it accepted: match its first view against it.
+void MatchFirstView(const silpose::ViewDatabase& database) {
+  if (database.models.empty()) return;
+  const silpose::ViewSpectra spectra(database);
+  silpose::ViewMatcher matcher(spectra);
+  silpose::MatchOptions options;
+  options.top_k = 3;
+  options.apparent_radius = database.ApparentRadius(0, 0, 0);
+  (void)matcher.Match(database.models[0].Signature(0, 0), options);
+}
+
+}  // namespace
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using silpose::ViewDatabase;
   if (size == 0) return 0;
@@ -30,15 +45,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   silpose::fuzz::ExpectOnlySilposeErrors([&] {
     const ViewDatabase database = ViewDatabase::Deserialize(bytes, "fuzz.db");
-    // What a reader does next with a database it accepted: write it, match against it.
-    (void)database.Serialize();
-    if (database.models.empty()) return;
-    const silpose::ViewSpectra spectra(database);
-    silpose::ViewMatcher matcher(spectra);
-    silpose::MatchOptions options;
-    options.top_k = 3;
-    options.apparent_radius = database.ApparentRadius(0, 0, 0);
-    (void)matcher.Match(database.models[0].Signature(0, 0), options);
+    (void)database.Serialize();  // written back
+    MatchFirstView(database);
   });
   silpose::fuzz::ExpectOnlySilposeErrors([&] {
     // As ViewDatabase::Read opens a file: the bulk referred to in place, each block and view
@@ -46,13 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const auto keep = std::make_shared<const std::string>(bytes);
     const ViewDatabase database =
         ViewDatabase::Deserialize(*keep, "fuzz.db", silpose::ViewChecks::kOnFirstUse, keep);
-    if (database.models.empty()) return;
-    const silpose::ViewSpectra spectra(database);
-    silpose::ViewMatcher matcher(spectra);
-    silpose::MatchOptions options;
-    options.top_k = 3;
-    options.apparent_radius = database.ApparentRadius(0, 0, 0);
-    (void)matcher.Match(database.models[0].Signature(0, 0), options);
+    MatchFirstView(database);
   });
   return 0;
 }

@@ -260,6 +260,18 @@ SyntheticDatabase MakeTwoShellDatabase(int num_models, int num_views, int length
   return synthetic;
 }
 
+void ExpectSameCandidates(const std::vector<MatchCandidate>& a,
+                          const std::vector<MatchCandidate>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].model, b[i].model) << "candidate " << i;
+    EXPECT_EQ(a[i].view, b[i].view) << "candidate " << i;
+    EXPECT_EQ(a[i].shell, b[i].shell) << "candidate " << i;
+    EXPECT_EQ(a[i].score, b[i].score) << "candidate " << i;
+    EXPECT_EQ(a[i].roll_deg, b[i].roll_deg) << "candidate " << i;
+  }
+}
+
 void ExpectSameSpectrum(const SignatureSpectrum& a, const SignatureSpectrum& b) {
   ASSERT_EQ(a.coefficients.size(), b.coefficients.size());
   ASSERT_EQ(a.magnitudes.size(), b.magnitudes.size());
@@ -368,14 +380,7 @@ TEST(ViewSpectra, ComputeAllMakesTheSpectraGetMakesLazily) {
             .top_k = 8, .exhaustive = exhaustive, .apparent_radius = apparent};
         const auto a = lazy_matcher.Match(query, options);
         const auto b = eager_matcher.Match(query, options);
-        ASSERT_EQ(a.size(), b.size());
-        for (size_t i = 0; i < a.size(); ++i) {
-          EXPECT_EQ(a[i].model, b[i].model);
-          EXPECT_EQ(a[i].view, b[i].view);
-          EXPECT_EQ(a[i].shell, b[i].shell);
-          EXPECT_EQ(a[i].score, b[i].score);
-          EXPECT_EQ(a[i].roll_deg, b[i].roll_deg);
-        }
+        ExpectSameCandidates(a, b);
       }
     }
   }
@@ -494,14 +499,7 @@ TEST(ViewSpectra, StoredSpectraAreLentFromTheFileAndEqualTheComputedOnes) {
     options.apparent_radius = 0.1;
     const std::vector<MatchCandidate> a = from_file.Match(radii, options);
     const std::vector<MatchCandidate> b = from_memory.Match(radii, options);
-    ASSERT_EQ(a.size(), b.size());
-    for (size_t i = 0; i < a.size(); ++i) {
-      EXPECT_EQ(a[i].model, b[i].model);
-      EXPECT_EQ(a[i].view, b[i].view);
-      EXPECT_EQ(a[i].shell, b[i].shell);
-      EXPECT_EQ(a[i].score, b[i].score);
-      EXPECT_EQ(a[i].roll_deg, b[i].roll_deg);
-    }
+    ExpectSameCandidates(a, b);
   }
   // A matcher with another smoothing computes its own spectra.
   CorrelationOptions other;
