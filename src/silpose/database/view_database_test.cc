@@ -10,7 +10,6 @@
 #include <limits>
 #include <memory>
 #include <random>
-#include <tuple>
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
@@ -354,9 +353,20 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
   };
   const size_t signature = offset(good.models[1].Signature(0, 1).data());
   const size_t magnitude = offset(good.models[1].spectra.magnitudes.data());
-  for (const auto& [at, shell, block, name] :
-       {std::tuple{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
-        std::tuple{magnitude + 3, 0, ViewBlock::kMagnitudes, "stored spectrum magnitudes"}}) {
+  struct Case {
+    size_t at;
+    int shell;
+    ViewBlock block;
+    const char* name;
+  };
+  for (const Case& c :
+       {Case{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
+        Case{magnitude + 3, 0, ViewBlock::kMagnitudes, "stored spectrum magnitudes"}}) {
+    // (Named copies: lambdas cannot capture structured bindings in every compiler.)
+    const size_t at = c.at;
+    const int shell = c.shell;
+    const ViewBlock block = c.block;
+    const char* name = c.name;
     std::string corrupt = bytes;
     corrupt[at] = static_cast<char>(corrupt[at] ^ 0x10);
     // Opens (only the structure is checked at once), and every other block is fine.

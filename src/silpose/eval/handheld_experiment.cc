@@ -155,9 +155,7 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
       if (f.right_object) {
         const double to_truth = equivalence.AngleDeg(estimated, truth.view_dir);
         for (const MirrorSymmetry& mirror : model.symmetry.mirrors) {
-          const Eigen::Vector3d n = mirror.normal.normalized();
-          const Eigen::Vector3d twin =
-              (2.0 * truth.view_dir.dot(n) * n - truth.view_dir).normalized();
+          const Eigen::Vector3d twin = mirror.TwinView(truth.view_dir);
           if (equivalence.AngleDeg(twin, truth.view_dir) > kTwinMinSeparationDeg &&
               equivalence.AngleDeg(estimated, twin) < to_truth) {
             f.wrong_twin = true;

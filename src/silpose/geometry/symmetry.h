@@ -38,6 +38,14 @@ struct ContinuousSymmetry {
 struct MirrorSymmetry {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+
+  /// The mirror twin of a view direction (unit, model frame, camera towards the object): the view
+  /// from which the object's outline is that seen from `view_dir`, mirrored (and turned). It is
+  /// -M view_dir = 2 (d . n) n - d, M the plane's reflection of directions, n the unit normal.
+  Eigen::Vector3d TwinView(const Eigen::Vector3d& view_dir) const {
+    const Eigen::Vector3d n = normal.normalized();
+    return (2.0 * view_dir.dot(n) * n - view_dir).normalized();
+  }
 };
 
 /// Every symmetry found for (or given to) one object.

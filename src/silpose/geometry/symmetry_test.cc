@@ -168,3 +168,23 @@ TEST(ViewEquivalence, AnglesModuloContinuousAndDiscreteSymmetries) {
 
 }  // namespace
 }  // namespace silpose
+
+namespace silpose {
+namespace {
+
+TEST(Symmetry, MirrorTwinViewIsTheReflectedReversedDirection) {
+  MirrorSymmetry mirror;
+  mirror.normal = Eigen::Vector3d(0.0, 0.0, 2.0);  // need not be unit
+  const Eigen::Vector3d d = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+  const Eigen::Vector3d twin = mirror.TwinView(d);
+  // Reflection across the plane z = 0 (z -> -z), then reversed: (-x, -y, z).
+  EXPECT_TRUE(twin.isApprox(Eigen::Vector3d(-d.x(), -d.y(), d.z()), 1e-12));
+  EXPECT_NEAR(twin.norm(), 1.0, 1e-12);
+  EXPECT_TRUE(mirror.TwinView(twin).isApprox(d, 1e-12));  // its own inverse
+  // Along the normal a view is its own twin; in the plane, the twin is the opposite view.
+  EXPECT_TRUE(mirror.TwinView(Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_TRUE(mirror.TwinView(Eigen::Vector3d::UnitX()).isApprox(-Eigen::Vector3d::UnitX()));
+}
+
+}  // namespace
+}  // namespace silpose

@@ -61,9 +61,8 @@ bool TrackSmoother::IsMirrorFlip(const ViewDatabase& database, const ViewEquival
   const Eigen::Vector3d& b = database.sphere.directions[static_cast<size_t>(before)];
   if (same.AngleDeg(d, b) <= radius_deg) return false;
   for (const MirrorSymmetry& mirror : symmetry.mirrors) {
-    // The view whose outline is that of `before` (geometry/symmetry.h): -M before.
-    const Eigen::Vector3d n = mirror.normal.normalized();
-    const Eigen::Vector3d twin = (2.0 * b.dot(n) * n - b).normalized();
+    // The view whose outline is that of `before`, mirrored.
+    const Eigen::Vector3d twin = mirror.TwinView(b);
     // A twin within the radius of `before` (seen along the plane's normal) is the same view.
     if (same.AngleDeg(twin, b) <= radius_deg) continue;
     if (same.AngleDeg(d, twin) <= radius_deg + std::max(motion_deg, 0.0)) return true;

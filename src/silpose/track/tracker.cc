@@ -136,10 +136,7 @@ bool Tracker::ScoreMirrorTwin(std::span<const float> radii, int view, int shell,
   const ViewEquivalence& same = equivalence_[static_cast<size_t>(result.object)];
   bool found = false;
   for (const MirrorSymmetry& mirror : model.symmetry.mirrors) {
-    const Eigen::Vector3d n = mirror.normal.normalized();
-    // Seen from d, a mirror-symmetric object's outline is that seen from -M d (turned), M the
-    // plane's reflection of directions (geometry/symmetry.h).
-    const Eigen::Vector3d other = (-d + 2.0 * d.dot(n) * n).normalized();
+    const Eigen::Vector3d other = mirror.TwinView(d);
     if (same.AngleDeg(other, d) <= options_.filter.mode_radius_deg) continue;
     const int twin_view = database_.sphere.NearestView(other);
     if (twin_view < 0 || !spectra_->Usable(result.object, twin_view, shell)) continue;
