@@ -114,9 +114,11 @@ void WriteSymmetry(const ObjectSymmetry& symmetry, Writer* out) {
 
 class Reader {
  public:
-  /// `bytes` start at file offset `offset`; `refer`: arrays refer to `bytes` instead of copying.
-  Reader(std::string_view bytes, const std::string& source, size_t offset, bool refer)
-      : bytes_(bytes), source_(source), offset_(offset), refer_(refer) {}
+  /// `bytes` start at file offset `offset`; with `storage` (which keeps `bytes` alive), arrays
+  /// refer to `bytes` instead of copying them, and keep `storage` alive.
+  Reader(std::string_view bytes, const std::string& source, size_t offset,
+         std::shared_ptr<const void> storage)
+      : bytes_(bytes), source_(source), offset_(offset), storage_(std::move(storage)) {}
 
   template <typename T>
   T Get(const char* what) {
@@ -143,8 +145,8 @@ class Reader {
     const char* data = bytes_.data() + position_;
     if (bulk) bulk_.push_back({offset_ + position_, count * sizeof(T)});
     position_ += count * sizeof(T);
-    if (refer_ && reinterpret_cast<uintptr_t>(data) % alignof(T) == 0) {
-      return SharedArray<T>::Refer(reinterpret_cast<const T*>(data), count);
+    if (storage_ && reinterpret_cast<uintptr_t>(data) % alignof(T) == 0) {
+      return SharedArray<T>::Refer(reinterpret_cast<const T*>(data), count, storage_);
     }
     std::vector<T> values(count);
     if (count > 0) std::memcpy(values.data(), data, count * sizeof(T));
@@ -185,7 +187,7 @@ class Reader {
   std::string_view bytes_;
   const std::string& source_;
   size_t offset_;
-  bool refer_;
+  std::shared_ptr<const void> storage_;
   size_t position_ = 0;
   std::vector<std::pair<size_t, size_t>> bulk_;
 };
@@ -564,7 +566,7 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   if (payload_size < structure_checksum) ThrowError(source, ": truncated database (no payload)");
 
   Reader in(bytes.substr(kHeaderSize, payload_size - structure_checksum), source, kHeaderSize,
-            storage != nullptr);
+            storage);
   ViewDatabase database;
   DatabaseParameters& parameters = database.parameters;
   if (in.Get<uint32_t>("sampling method") != kSamplingFibonacci) in.Fail("unknown sampling method");

@@ -121,7 +121,8 @@ struct ModelViews {
   std::vector<ViewRecord> views;
   /// Signatures in the same order, M values each: (shell s, view v) is
   /// signatures[(s * N + v) * M, (s * N + v + 1) * M). Unusable views are all 0. In a database
-  /// read from a file they refer to the mapped file (util/shared_array.h).
+  /// read from a file they refer to the mapped file, which they keep alive, also in copies of
+  /// the model (util/shared_array.h).
   SharedArray<float> signatures;
   /// The views' spectra, if stored (see StoredSpectra).
   StoredSpectra spectra;

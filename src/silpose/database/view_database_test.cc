@@ -314,7 +314,18 @@ TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
       EXPECT_EQ(old.models[1].signatures, original.models[1].signatures);
     }
   }
+  // A model copied out of a database read from a file keeps the mapping alive after the database
+  // and the file's name are gone.
+  ModelViews survivor;
+  {
+    const ViewDatabase loaded = ViewDatabase::Read(path);
+    survivor = loaded.models[1];
+  }
   std::filesystem::remove(path);
+  EXPECT_TRUE(survivor.signatures.referring());
+  EXPECT_EQ(survivor.signatures, original.models[1].signatures);
+  EXPECT_EQ(survivor.spectra.coefficients, original.models[1].spectra.coefficients);
+  EXPECT_EQ(survivor.spectra.magnitudes, original.models[1].spectra.magnitudes);
 }
 
 TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {

@@ -3,11 +3,12 @@
 // someone else keeps alive, e.g. a database file mapped into memory (util/mapped_file.h). Reading
 // is the same either way; the first write to a referring array copies the elements into storage of
 // its own (copy on write), so mapped memory is never written. Copying a referring array copies the
-// reference, not the elements: the memory must outlive every copy (ViewDatabase keeps its mapping
-// alive for as long as the database and its copies exist).
+// reference, not the elements, and the owner of the memory if one was given (Refer), which keeps
+// it alive for as long as any copy exists; without an owner the memory must outlive every copy.
 
 #include <algorithm>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <type_traits>
 #include <vector>
@@ -20,12 +21,15 @@ class SharedArray {
   SharedArray() = default;
   SharedArray(std::vector<T> values)  // NOLINT(google-explicit-constructor): a vector is an array
       : owned_(std::move(values)), data_(owned_.data()), size_(owned_.size()) {}
-  /// An array referring to `size` elements at `data`, which must outlive it and its copies.
-  static SharedArray Refer(const T* data, size_t size) {
+  /// An array referring to `size` elements at `data`, kept alive by `owner` (shared by every
+  /// copy); without an owner, `data` must outlive the array and its copies.
+  static SharedArray Refer(const T* data, size_t size,
+                           std::shared_ptr<const void> owner = nullptr) {
     SharedArray array;
     array.data_ = data;
     array.size_ = size;
     array.referring_ = true;
+    array.owner_ = std::move(owner);
     return array;
   }
 
@@ -33,6 +37,7 @@ class SharedArray {
   SharedArray& operator=(const SharedArray& other) {
     if (this == &other) return *this;
     referring_ = other.referring_;
+    owner_ = other.owner_;
     if (referring_) {
       owned_.clear();
       owned_.shrink_to_fit();
@@ -48,6 +53,7 @@ class SharedArray {
   SharedArray& operator=(SharedArray&& other) noexcept {
     if (this == &other) return *this;
     referring_ = other.referring_;
+    owner_ = std::move(other.owner_);
     owned_ = std::move(other.owned_);
     data_ = referring_ ? other.data_ : owned_.data();
     size_ = other.size_;
@@ -99,6 +105,7 @@ class SharedArray {
     if (referring_) {
       owned_.assign(data_, data_ + size_);
       referring_ = false;
+      owner_.reset();
       data_ = owned_.data();
     }
     return owned_.data();
@@ -118,6 +125,7 @@ class SharedArray {
   const T* data_ = nullptr;
   size_t size_ = 0;
   bool referring_ = false;
+  std::shared_ptr<const void> owner_;
 };
 
 }  // namespace silpose
