@@ -30,12 +30,11 @@ struct MatchArguments {
 nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& arguments,
                         const std::string& mask_path) {
   const auto start = std::chrono::steady_clock::now();
-  const struct { const std::string& mask; } current{mask_path};
-  const cv::Mat mask = ReadMask(current.mask);
+  const cv::Mat mask = ReadMask(mask_path);
   const SignatureResult silhouette = ExtractSignature(mask, database.parameters.signature);
   if (!silhouette.ok()) {
     ThrowError(
-        current.mask, ": no usable silhouette (", ToString(silhouette.status),
+        mask_path, ": no usable silhouette (", ToString(silhouette.status),
         silhouette.status == SignatureStatus::kTooSmall
             ? ": it must enclose at least " +
                   std::to_string(static_cast<int>(database.parameters.signature.min_area_px)) +
@@ -49,7 +48,7 @@ nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& argu
     camera = ReadCameraFile(arguments.camera);
     if (camera.width_px != mask.cols || camera.height_px != mask.rows) {
       ThrowError(arguments.camera, ": the camera is ", camera.width_px, "x", camera.height_px,
-                 " pixels but ", current.mask, " is ", mask.cols, "x", mask.rows,
+                 " pixels but ", mask_path, " is ", mask.cols, "x", mask.rows,
                  ": wrong calibration file?");
     }
   }
@@ -82,7 +81,7 @@ nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& argu
   const PolarSignature& signature = silhouette.signature;
   if (arguments.json) {
     nlohmann::json output;
-    output["mask"] = current.mask;
+    output["mask"] = mask_path;
     output["database"] = arguments.database;
     output["silhouette"] = {{"status", ToString(silhouette.status)},
                             {"flags", DescribeSilhouetteFlags(silhouette.flags)},
@@ -123,7 +122,7 @@ nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& argu
     output["iou"] = std::isfinite(best.iou) ? nlohmann::json(best.iou) : nlohmann::json(nullptr);
     return output;
   }
-  std::printf("%s: %s, centroid (%.1f, %.1f) px, mean radius %.1f px\n", current.mask.c_str(),
+  std::printf("%s: %s, centroid (%.1f, %.1f) px, mean radius %.1f px\n", mask_path.c_str(),
               silhouette.Describe().c_str(), signature.centroid_px.x(), signature.centroid_px.y(),
               signature.mean_radius_px);
   std::printf("%4s  %-24s %6s  %-26s %9s %8s\n", "rank", "object", "view", "view direction",
