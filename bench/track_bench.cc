@@ -4,6 +4,8 @@
 //  - BM_TrackMaskVideo:  a mask video (lossless PNG frames), --segment mask
 //  - BM_TrackColourVideo: a colour video (MJPEG, camera noise), --segment bgsub (MOG2 or KNN,
 //    learned from the empty scene's image)
+//  - BM_TrackStreams/N: N mask videos tracked at once on N threads, one Tracker each, sharing the
+//    database and one ViewSpectra (items_per_second: frames per second of all streams together)
 // items_per_second is frames per second. The videos (300 frames of a random walk around the
 // elephant, or the first model) are rendered once into a temporary folder.
 
@@ -12,6 +14,7 @@
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <thread>
 
 #include "bench_models.h"
 #include "silpose/database/database_builder.h"
@@ -27,6 +30,8 @@ constexpr int kFrames = 300;
 
 struct Fixture {
   ViewDatabase database;
+  // Shared by the trackers of BM_TrackStreams.
+  std::unique_ptr<ViewSpectra> spectra;
   PinholeCamera camera;
   std::filesystem::path folder;
 };
@@ -38,6 +43,9 @@ const Fixture& GetFixture() {
     DatabaseBuildOptions build;
     build.num_threads = 0;
     f->database = BuildViewDatabase(models, build);
+    // With its spectra, as `silpose build-db` writes it.
+    StoreViewSpectra(&f->database, CorrelationOptions{}, 0);
+    f->spectra = std::make_unique<ViewSpectra>(f->database);
     std::filesystem::path flown = models.front();
     for (const auto& model : models)
       if (model.stem() == "elephant") flown = model;
@@ -63,6 +71,8 @@ const Fixture& GetFixture() {
     masks->Close();
     colour->Close();
     cv::imwrite((f->folder / "background.png").string(), sequence.background());
+    // One thread per stream: OpenCV's own threads off (before any benchmark thread starts).
+    cv::setNumThreads(1);
     return f;
   }();
   return *fixture;
@@ -103,6 +113,31 @@ void BM_TrackColourVideo(benchmark::State& state) {
   RunVideo(state, "video.avi", options);
 }
 BENCHMARK(BM_TrackColourVideo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// Several streams in one process: each benchmark thread tracks the mask video with a tracker of its
+// own; all share the database and its spectra. Real time, so that items_per_second is the
+// throughput of the process.
+void BM_TrackStreams(benchmark::State& state) {
+  const Fixture& fixture = GetFixture();
+  int64_t frames = 0;
+  for (auto _ : state) {
+    std::unique_ptr<FrameSource> source = OpenFrameSource((fixture.folder / "masks.avi").string());
+    Tracker tracker(*fixture.spectra, fixture.camera, TrackerOptions{});
+    for (cv::Mat frame; source->Read(&frame);) {
+      benchmark::DoNotOptimize(tracker.Process(frame));
+      ++frames;
+    }
+  }
+  state.SetItemsProcessed(frames);
+  state.SetLabel(std::to_string(state.threads()) + " stream(s), " +
+                 std::to_string(std::thread::hardware_concurrency()) + " cores");
+}
+BENCHMARK(BM_TrackStreams)
+    ->Threads(1)
+    ->Threads(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 
 }  // namespace
 }  // namespace silpose

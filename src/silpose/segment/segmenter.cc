@@ -9,6 +9,7 @@
 #include <sstream>
 #include <utility>
 
+#include "silpose/shape/polar_signature.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -429,7 +430,7 @@ class PipelineSegmenter final : public Segmenter {
 
   void ChooseComponent(const cv::Size& full, SegmentationResult* result) {
     // Labelling only the box around all foreground pixels: usually a small part of the frame.
-    const cv::Rect region = cv::boundingRect(foreground_);
+    const cv::Rect region = NonZeroBoundingBox(foreground_);
     const int count = cv::connectedComponentsWithStats(foreground_(region), labels_, stats_,
                                                        centroids_, 8, CV_32S);
     const double scale = factor_;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
@@ -16,6 +18,122 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();
+}
+
+// Unit ray directions at `length` equal angles, made once per length and thread (a frame's
+// signature needs the same 1000 directions every time; computing them cost a fifth of it).
+const std::vector<Eigen::Vector2d>& RayDirections(int length) {
+  thread_local std::vector<Eigen::Vector2d> directions;
+  if (directions.size() != static_cast<size_t>(length)) {
+    directions.resize(static_cast<size_t>(length));
+    for (size_t k = 0; k < directions.size(); ++k) {
+      const double angle = kTwoPi * static_cast<double>(k) / static_cast<double>(length);
+      directions[k] = {std::cos(angle), std::sin(angle)};
+    }
+  }
+  return directions;
+}
+
+// Whether any of the bytes [begin, end) is not zero: eight at a time, without an early exit,
+// which lets the compiler use vector registers.
+bool AnyNonZero(const uint8_t* begin, const uint8_t* end) {
+  uint64_t any = 0;
+  for (; end - begin >= 8; begin += 8) {
+    uint64_t word;
+    std::memcpy(&word, begin, sizeof(word));
+    any |= word;
+  }
+  for (; begin < end; ++begin) any |= *begin;
+  return any != 0;
+}
+
+// The first non-zero byte of [begin, end), or end.
+const uint8_t* FirstNonZero(const uint8_t* begin, const uint8_t* end) {
+  for (; end - begin >= 8; begin += 8) {
+    uint64_t word;
+    std::memcpy(&word, begin, sizeof(word));
+    if (word != 0) break;
+  }
+  for (; begin < end; ++begin) {
+    if (*begin != 0) return begin;
+  }
+  return end;
+}
+
+// The last non-zero byte of [begin, end), or end.
+const uint8_t* LastNonZero(const uint8_t* begin, const uint8_t* end) {
+  const uint8_t* p = end;
+  for (; p - begin >= 8; p -= 8) {
+    uint64_t word;
+    std::memcpy(&word, p - 8, sizeof(word));
+    if (word != 0) break;
+  }
+  while (p > begin) {
+    --p;
+    if (*p != 0) return p;
+  }
+  return end;
+}
+
+}  // namespace
+
+cv::Rect NonZeroBoundingBox(const cv::Mat& mask) {
+  SILPOSE_ASSERT(mask.type() == CV_8UC1);
+  int top = -1;
+  int bottom = -1;
+  int left = mask.cols;
+  int right = -1;
+  for (int y = 0; y < mask.rows; ++y) {
+    const uint8_t* row = mask.ptr<uint8_t>(y);
+    const uint8_t* row_end = row + mask.cols;
+    if (!AnyNonZero(row, row_end)) continue;
+    if (top < 0) top = y;
+    bottom = y;
+    // Only the columns outside those already known to hold the object can widen the box.
+    const uint8_t* first = FirstNonZero(row, row + left);
+    if (first != row + left) left = static_cast<int>(first - row);
+    const uint8_t* last = LastNonZero(row + right + 1, row_end);
+    if (last != row_end) right = static_cast<int>(last - row);
+  }
+  if (top < 0) return {};
+  return {left, top, right - left + 1, bottom - top + 1};
+}
+
+namespace {
+
+// Area and centre of gravity of the non-zero pixels of `mask` (pixel centres at integer
+// coordinates), as cv::moments(mask, true) gives them but without its thread pool, whose start
+// costs more than the sums on a silhouette's bounding box. RowSum is wide enough for the sum of
+// the column indices of one row.
+template <typename RowSum>
+double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
+  int64_t count = 0;
+  int64_t sum_x = 0;
+  int64_t sum_y = 0;
+  for (int y = 0; y < mask.rows; ++y) {
+    const uint8_t* row = mask.ptr<uint8_t>(y);
+    RowSum row_count = 0;
+    RowSum row_sum_x = 0;
+    for (int x = 0; x < mask.cols; ++x) {
+      const RowSum inside = row[x] != 0 ? 1 : 0;
+      row_count += inside;
+      row_sum_x += inside * x;
+    }
+    count += row_count;
+    sum_x += row_sum_x;
+    sum_y += static_cast<int64_t>(row_count) * y;
+  }
+  if (count > 0) {
+    *centroid = {static_cast<double>(sum_x) / static_cast<double>(count),
+                 static_cast<double>(sum_y) / static_cast<double>(count)};
+  }
+  return static_cast<double>(count);
+}
+
+double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
+  // 0 + 1 + ... + 46340 still fits 32 bits.
+  return mask.cols <= 46340 ? PixelAreaCentroid<int32_t>(mask, centroid)
+                            : PixelAreaCentroid<int64_t>(mask, centroid);
 }
 
 }  // namespace
@@ -103,20 +221,23 @@ std::vector<float> StarConvexRadii(std::span<const Eigen::Vector2d> polygon,
   const auto m = static_cast<size_t>(length);
   constexpr double kInfinity = std::numeric_limits<double>::infinity();
   std::vector<double> radius(m, kInfinity);
-  std::vector<Eigen::Vector2d> directions(m);
-  for (size_t k = 0; k < m; ++k) {
-    const double angle = kTwoPi * static_cast<double>(k) / static_cast<double>(length);
-    directions[k] = {std::cos(angle), std::sin(angle)};
-  }
+  const std::vector<Eigen::Vector2d>& directions = RayDirections(length);
   const double bins_per_radian = static_cast<double>(length) / kTwoPi;
   const size_t n = polygon.size();
+  // Each vertex's angle about the centre, once (an edge needs both of its ends').
+  std::vector<double> angles(n);
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector2d a = polygon[i] - centre;
-    const Eigen::Vector2d b = polygon[(i + 1) % n] - centre;
+    angles[i] = std::atan2(a.y(), a.x());
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const size_t next = i + 1 == n ? 0 : i + 1;
+    const Eigen::Vector2d a = polygon[i] - centre;
+    const Eigen::Vector2d b = polygon[next] - centre;
     const Eigen::Vector2d edge = b - a;
     if (edge.squaredNorm() == 0.0) continue;
-    const double angle_a = std::atan2(a.y(), a.x());
-    double sweep = std::atan2(b.y(), b.x()) - angle_a;
+    const double angle_a = angles[i];
+    double sweep = angles[next] - angle_a;
     if (sweep > std::numbers::pi) sweep -= kTwoPi;
     if (sweep < -std::numbers::pi) sweep += kTwoPi;
     // An edge through the centre itself sweeps half a turn: it hides nothing behind it.
@@ -161,9 +282,14 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
                mask.channels(), " channel(s)");
   }
   SignatureResult result;
+  // Contours are traced on the bounding box of the non-zero pixels only (findContours pads its
+  // input with zeros, so the contours are those of the whole mask, in the same order).
+  const cv::Rect object_box = NonZeroBoundingBox(mask);
+  if (object_box.empty()) return result;  // kEmpty
   std::vector<std::vector<cv::Point>> contours;
   std::vector<cv::Vec4i> hierarchy;
-  cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+  cv::findContours(mask(object_box), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE,
+                   object_box.tl());
 
   // Outer contours have no parent in the two-level hierarchy of RETR_CCOMP.
   std::vector<int> outer;
@@ -238,9 +364,9 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
                    cv::noArray(), 0, cv::Point(-roi.x, -roi.y));
   // Centre of gravity and area from the pixels themselves (pixel centres at integer coordinates),
   // not from the contour polygon, which runs half a pixel inside the pixels' outline.
-  const cv::Moments moments = cv::moments(filled, /*binaryImage=*/true);
-  signature.area_px = moments.m00;
-  signature.centroid_px = {moments.m10 / moments.m00 + roi.x, moments.m01 / moments.m00 + roi.y};
+  Eigen::Vector2d filled_centroid = Eigen::Vector2d::Zero();
+  signature.area_px = PixelAreaCentroid(filled, &filled_centroid);
+  signature.centroid_px = filled_centroid + Eigen::Vector2d(roi.x, roi.y);
   if (cv::pointPolygonTest(contour,
                            cv::Point2f(static_cast<float>(signature.centroid_px.x()),
                                        static_cast<float>(signature.centroid_px.y())),

@@ -325,5 +325,71 @@ TEST(PolarSignature, NonBinaryMasksCountEveryNonZeroPixel) {
   EXPECT_EQ(ExtractSignature(a).signature.radii, ExtractSignature(b).signature.radii);
 }
 
+TEST(PolarSignature, NonZeroBoundingBoxIsOpenCVsOnEveryLayout) {
+  // Widths that are and are not multiples of the eight bytes scanned at a time, objects touching
+  // every edge, single pixels, views into a larger image (rows not contiguous).
+  cv::RNG rng(7);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int width = 1 + rng.uniform(0, 70);
+    const int height = 1 + rng.uniform(0, 40);
+    cv::Mat canvas = cv::Mat::zeros(height + 6, width + 9, CV_8UC1);
+    cv::Mat mask = canvas(cv::Rect(4, 3, width, height));
+    const int pixels = trial % 10 == 0 ? 0 : rng.uniform(1, 6);
+    for (int i = 0; i < pixels; ++i) {
+      mask.at<uint8_t>(rng.uniform(0, height), rng.uniform(0, width)) =
+          static_cast<uint8_t>(rng.uniform(1, 256));
+    }
+    // Pixels around the view must not count.
+    canvas.row(0).setTo(255);
+    canvas.col(canvas.cols - 1).setTo(255);
+    std::vector<cv::Point> points;
+    cv::findNonZero(mask, points);
+    const cv::Rect expected = points.empty() ? cv::Rect() : cv::boundingRect(points);
+    EXPECT_EQ(NonZeroBoundingBox(mask), expected)
+        << width << " x " << height << ", trial " << trial;
+  }
+}
+
+TEST(PolarSignature, DescriptionDoesNotDependOnWhereTheMaskLiesInTheImage) {
+  // The same silhouette in a small image, moved within a large one, and in a view of a larger
+  // image: the same radii, and the centre moved by the offset.
+  const cv::Mat small = HookShape(90.0, 25.0, {240, 220});
+  const SignatureResult reference = ExtractSignature(small);
+  ASSERT_TRUE(reference.ok()) << reference.Describe();
+  cv::Mat large = cv::Mat::zeros(600, 800, CV_8UC1);
+  const cv::Point offset(333, 141);
+  small.copyTo(large(cv::Rect(offset, small.size())));
+  const SignatureResult moved = ExtractSignature(large);
+  ASSERT_TRUE(moved.ok());
+  EXPECT_EQ(moved.signature.radii, reference.signature.radii);
+  EXPECT_EQ(moved.signature.area_px, reference.signature.area_px);
+  EXPECT_NEAR(moved.signature.centroid_px.x(), reference.signature.centroid_px.x() + offset.x,
+              1e-9);
+  EXPECT_NEAR(moved.signature.centroid_px.y(), reference.signature.centroid_px.y() + offset.y,
+              1e-9);
+  // A view whose rows are not contiguous, with object pixels just outside it.
+  cv::Mat padded = cv::Mat::zeros(small.rows + 20, small.cols + 20, CV_8UC1);
+  padded.setTo(255);
+  small.copyTo(padded(cv::Rect(10, 10, small.cols, small.rows)));
+  const SignatureResult viewed = ExtractSignature(padded(cv::Rect(10, 10, small.cols, small.rows)));
+  ASSERT_TRUE(viewed.ok());
+  EXPECT_EQ(viewed.signature.radii, reference.signature.radii);
+  EXPECT_EQ(viewed.signature.centroid_px, reference.signature.centroid_px);
+}
+
+TEST(PolarSignature, AreaAndCentreAreThePixelMoments) {
+  // One component without holes: the description's area and centre are OpenCV's moments of the
+  // mask's pixels.
+  cv::Mat mask = cv::Mat::zeros(480, 640, CV_8UC1);
+  cv::ellipse(mask, {401, 187}, {120, 57}, 33, 0, 360, cv::Scalar(255), cv::FILLED);
+  cv::rectangle(mask, cv::Rect(380, 150, 150, 20), cv::Scalar(255), cv::FILLED);
+  const cv::Moments moments = cv::moments(mask, /*binaryImage=*/true);
+  const SignatureResult result = ExtractSignature(mask);
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result.signature.area_px, moments.m00);
+  EXPECT_NEAR(result.signature.centroid_px.x(), moments.m10 / moments.m00, 1e-9);
+  EXPECT_NEAR(result.signature.centroid_px.y(), moments.m01 / moments.m00, 1e-9);
+}
+
 }  // namespace
 }  // namespace silpose

@@ -69,12 +69,21 @@ void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result) {
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
                  const TrackerOptions& options)
+    : Tracker(database, nullptr, camera, options) {}
+
+Tracker::Tracker(const ViewSpectra& spectra, const PinholeCamera& camera,
+                 const TrackerOptions& options)
+    : Tracker(spectra.database(), &spectra, camera, options) {}
+
+Tracker::Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra,
+                 const PinholeCamera& camera, const TrackerOptions& options)
     : database_(database), camera_(camera), options_(options) {
   std::string problem;
   if (!options_.Check(&problem)) ThrowError("tracker options: ", problem);
   if (!camera_.Check(&problem)) ThrowError("camera: ", problem);
   if (database_.models.empty()) ThrowError("tracker: the database has no models");
-  spectra_ = std::make_unique<ViewSpectra>(database_);
+  if (shared_spectra == nullptr) own_spectra_ = std::make_unique<ViewSpectra>(database_);
+  spectra_ = shared_spectra != nullptr ? shared_spectra : own_spectra_.get();
   segmenter_ = CreateSegmenter(options_.segmentation);
   state_ = std::make_unique<TrackStateEstimator>(options_.state);
   // The matcher searches in brute-force mode and scores mirror twins (Assess) in both modes.

@@ -131,6 +131,11 @@ class Tracker {
   Tracker(const ViewDatabase& database, const PinholeCamera& camera, const TrackerOptions& options);
   /// With default options.
   Tracker(const ViewDatabase& database, const PinholeCamera& camera);
+  /// Matches with `spectra` (and its database) instead of spectra of its own: several trackers,
+  /// one per stream and thread, can share one ViewSpectra, so that each view's spectrum is made
+  /// (or checked) once and held once. `spectra` must outlive the tracker.
+  Tracker(const ViewSpectra& spectra, const PinholeCamera& camera, const TrackerOptions& options);
+  Tracker(ViewSpectra&&, const PinholeCamera&, const TrackerOptions&) = delete;
   ~Tracker();
   Tracker(const Tracker&) = delete;
   Tracker& operator=(const Tracker&) = delete;
@@ -172,6 +177,8 @@ class Tracker {
  private:
   /// `feed_filter`: the refined rotation updates the filter's velocity (Process, not Revise).
   void Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter);
+  Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra,
+          const PinholeCamera& camera, const TrackerOptions& options);
   /// The pose (and refinement) of tracked->result's object as database view `view` in distance
   /// shell `shell` at the result's roll; status suffixes as Process documents.
   void EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* tracked,
@@ -182,7 +189,10 @@ class Tracker {
   const ViewDatabase& database_;
   PinholeCamera camera_;
   TrackerOptions options_;
-  std::unique_ptr<ViewSpectra> spectra_;
+  /// The spectra made for this tracker alone (null when it shares someone else's), and the ones
+  /// it matches with.
+  std::unique_ptr<ViewSpectra> own_spectra_;
+  const ViewSpectra* spectra_ = nullptr;
   std::unique_ptr<Segmenter> segmenter_;
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <thread>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
@@ -60,6 +61,17 @@ struct RunSummary {
   std::vector<double> translation_errors;  // relative to the true distance
 };
 
+// A frame's object, roll, view and translation, printed exactly.
+std::string EstimateText(const FrameResult& result) {
+  std::ostringstream estimate;
+  estimate.precision(17);
+  estimate << result.object << ' ' << result.roll_deg << ' ';
+  if (result.view_dir_in_object) estimate << result.view_dir_in_object->x();
+  if (result.camera_from_object)
+    estimate << ' ' << result.camera_from_object->translation.transpose();
+  return estimate.str();
+}
+
 RunSummary TrackSequence(const TrackerOptions& options) {
   Tracker tracker(Database(), Sequence().camera(), options);
   RunSummary summary;
@@ -69,13 +81,7 @@ RunSummary TrackSequence(const TrackerOptions& options) {
     EXPECT_EQ(tracked.result.frame, f);
     EXPECT_EQ(tracked.result.status, "measured") << "frame " << f;
     summary.objects.push_back(tracked.result.object_name);
-    std::ostringstream estimate;
-    estimate.precision(17);
-    estimate << tracked.result.object << ' ' << tracked.result.roll_deg << ' ';
-    if (tracked.result.view_dir_in_object) estimate << tracked.result.view_dir_in_object->x();
-    if (tracked.result.camera_from_object)
-      estimate << ' ' << tracked.result.camera_from_object->translation.transpose();
-    summary.estimates.push_back(estimate.str());
+    summary.estimates.push_back(EstimateText(tracked.result));
     // Settled frames only: 10 frames after the start and after the switch.
     const bool settled = (f >= 10 && f < 40) || f >= 50;
     if (settled && tracked.result.object_name == frame.truth.object) {
@@ -117,6 +123,45 @@ TEST(Tracker, SameSeedSameResults) {
   const RunSummary first = TrackSequence(options);
   EXPECT_EQ(first.estimates, TrackSequence(options).estimates);
   EXPECT_EQ(first.estimates.size(), 80u);
+}
+
+TEST(Tracker, StreamsOnThreadsSharingOneViewSpectraGetTheirOwnResults) {
+  // Two streams (another seed each, one of them brute force) tracked at the same time on two
+  // threads, sharing the database and one ViewSpectra, give what each gives alone with spectra of
+  // its own.
+  std::vector<cv::Mat> masks;
+  for (int f = 0; f < Sequence().num_frames(); ++f) masks.push_back(Sequence().Generate(f).mask);
+  std::vector<TrackerOptions> streams(3);
+  streams[0].filter.seed = 3;
+  streams[1].filter.seed = 5;
+  streams[2].brute_force = true;
+  auto run = [&](Tracker& tracker, std::vector<std::string>* estimates) {
+    for (const cv::Mat& mask : masks)
+      estimates->push_back(EstimateText(tracker.Process(mask).result));
+  };
+  std::vector<std::vector<std::string>> alone(streams.size());
+  for (size_t s = 0; s < streams.size(); ++s) {
+    Tracker tracker(Database(), Sequence().camera(), streams[s]);
+    run(tracker, &alone[s]);
+  }
+  const ViewSpectra spectra(Database());
+  std::vector<std::vector<std::string>> together(streams.size());
+  std::vector<std::thread> threads;
+  for (size_t s = 0; s < streams.size(); ++s) {
+    threads.emplace_back([&, s] {
+      Tracker tracker(spectra, Sequence().camera(), streams[s]);
+      EXPECT_EQ(&tracker.spectra(), &spectra);
+      EXPECT_EQ(&tracker.database(), &Database());
+      run(tracker, &together[s]);
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  for (size_t s = 0; s < streams.size(); ++s) {
+    EXPECT_EQ(together[s].size(), masks.size());
+    EXPECT_EQ(together[s], alone[s]) << "stream " << s;
+  }
+  EXPECT_NE(alone[0], alone[1]);          // the streams did different work
+  EXPECT_GT(spectra.num_computed(), 0u);  // the trackers matched with the shared spectra
 }
 
 TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
