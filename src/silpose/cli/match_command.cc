@@ -27,8 +27,9 @@ struct MatchArguments {
 
 // Matches one mask: prints its table, or returns its JSON object. Throws silpose::Error naming the
 // mask (or camera file) if it cannot be matched.
-nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& arguments,
+nlohmann::json MatchOne(const ViewSpectra& spectra, const MatchArguments& arguments,
                         const std::string& mask_path) {
+  const ViewDatabase& database = spectra.database();
   const auto start = std::chrono::steady_clock::now();
   const cv::Mat mask = ReadMask(mask_path);
   const SignatureResult silhouette = ExtractSignature(mask, database.parameters.signature);
@@ -57,7 +58,7 @@ nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& argu
   TrackerOptions tracker_options;
   tracker_options.brute_force = true;
   tracker_options.refine = !arguments.no_refine;
-  Tracker tracker(database, camera, tracker_options);
+  Tracker tracker(spectra, camera, tracker_options);
   const TrackedFrame tracked = tracker.Process(mask);
   std::span<const float> radii = silhouette.signature.radii;
   double apparent_radius =
@@ -66,7 +67,7 @@ nlohmann::json MatchOne(const ViewDatabase& database, const MatchArguments& argu
     radii = tracked.on_axis->signature.radii;
     apparent_radius = tracked.on_axis->apparent_radius;
   }
-  ViewMatcher matcher(tracker.spectra());  // the spectra the tracker already made
+  ViewMatcher matcher(spectra);  // the spectra the tracker already used
   MatchOptions options;
   options.top_k = arguments.top_k;
   options.exhaustive = arguments.exhaustive;
@@ -168,8 +169,10 @@ void RunMatch(const MatchArguments& arguments) {
   const ViewDatabase database = ViewDatabase::Read(arguments.database);
   const double open_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  // One set of spectra for every mask: each view's spectrum is made (or checked) once.
+  const ViewSpectra spectra(database);
   if (arguments.masks.size() == 1) {
-    const nlohmann::json output = MatchOne(database, arguments, arguments.masks.front());
+    const nlohmann::json output = MatchOne(spectra, arguments, arguments.masks.front());
     if (arguments.json) std::cout << output.dump(2) << "\n";
     return;
   }
@@ -182,7 +185,7 @@ void RunMatch(const MatchArguments& arguments) {
     const std::string& mask = arguments.masks[i];
     try {
       if (!arguments.json && i > 0) std::printf("\n");
-      nlohmann::json output = MatchOne(database, arguments, mask);
+      nlohmann::json output = MatchOne(spectra, arguments, mask);
       if (arguments.json) list.push_back(std::move(output));
     } catch (const Error& error) {
       ++failed;
