@@ -1,10 +1,12 @@
-// What is shared between threads (docs/tracking.md, "As a library"): one database read by several
-// trackers at once, and one ViewSpectra (whose spectra are made on first use) searched by one
-// ViewMatcher per thread. Each must give what it gives alone. These tests are also run under
-// ThreadSanitizer (the 'tsan' preset, scripts/run-sanitizers.sh).
+// What is shared between threads (README, "As a library"): one database read by several
+// trackers at once, one ViewSpectra (whose spectra are made on first use) shared by several
+// trackers, and one ViewSpectra searched by one ViewMatcher per thread. Each must give what it
+// gives alone. These tests are also run under ThreadSanitizer (the 'tsan' preset,
+// scripts/run-sanitizers.sh).
 
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <opencv2/core/utility.hpp>
 #include <sstream>
 #include <string>
@@ -47,9 +49,18 @@ const SyntheticSequence& Sequence() {
   return *sequence;
 }
 
-// Per frame: status, object, roll, view and translation, printed exactly.
-std::vector<std::string> Track() {
-  Tracker tracker(Database(), Sequence().camera(), TrackerOptions());
+// Per frame: status, object, roll, view and translation, printed exactly. With `shared`, the
+// tracker matches with those spectra instead of its own.
+std::vector<std::string> Track(const TrackerOptions& options = {},
+                               const ViewSpectra* shared = nullptr) {
+  std::unique_ptr<Tracker> own;
+  if (shared != nullptr) {
+    own = std::make_unique<Tracker>(*shared, Sequence().camera(), options);
+    EXPECT_EQ(&own->spectra(), shared);
+  } else {
+    own = std::make_unique<Tracker>(Database(), Sequence().camera(), options);
+  }
+  Tracker& tracker = *own;
   std::vector<std::string> estimates;
   for (int f = 0; f < Sequence().num_frames(); ++f) {
     const FrameResult result = tracker.Process(Sequence().Generate(f).mask).result;
@@ -85,6 +96,28 @@ TEST_F(SharedBetweenThreads, TrackersOnOneDatabaseGiveWhatEachGivesAlone) {
   for (auto& result : together) threads.emplace_back([&result] { result = Track(); });
   for (auto& thread : threads) thread.join();
   for (const auto& result : together) EXPECT_EQ(result, alone);
+}
+
+TEST_F(SharedBetweenThreads, TrackersSharingOneViewSpectraGiveWhatEachGivesAlone) {
+  // Streams with other options (another seed, brute force) tracked at once, one tracker per
+  // thread, all matching with one ViewSpectra whose spectra are made on first use.
+  (void)Sequence();
+  std::vector<TrackerOptions> streams(3);
+  streams[0].filter.seed = 3;
+  streams[1].filter.seed = 5;
+  streams[2].brute_force = true;
+  std::vector<std::vector<std::string>> alone;
+  for (const TrackerOptions& options : streams) alone.push_back(Track(options));
+  EXPECT_NE(alone[0], alone[2]);  // the streams do different work
+  const ViewSpectra spectra(Database());
+  std::vector<std::vector<std::string>> together(streams.size());
+  std::vector<std::thread> threads;
+  for (size_t s = 0; s < streams.size(); ++s) {
+    threads.emplace_back([&, s] { together[s] = Track(streams[s], &spectra); });
+  }
+  for (auto& thread : threads) thread.join();
+  for (size_t s = 0; s < streams.size(); ++s) EXPECT_EQ(together[s], alone[s]) << "stream " << s;
+  EXPECT_GT(spectra.num_computed(), 0u);  // the trackers matched with the shared spectra
 }
 
 // Every view of every model and shell, matched against the database: best candidate per query.

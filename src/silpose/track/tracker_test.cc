@@ -7,7 +7,6 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
-#include <thread>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
@@ -123,45 +122,6 @@ TEST(Tracker, SameSeedSameResults) {
   const RunSummary first = TrackSequence(options);
   EXPECT_EQ(first.estimates, TrackSequence(options).estimates);
   EXPECT_EQ(first.estimates.size(), 80u);
-}
-
-TEST(Tracker, StreamsOnThreadsSharingOneViewSpectraGetTheirOwnResults) {
-  // Two streams (another seed each, one of them brute force) tracked at the same time on two
-  // threads, sharing the database and one ViewSpectra, give what each gives alone with spectra of
-  // its own.
-  std::vector<cv::Mat> masks;
-  for (int f = 0; f < Sequence().num_frames(); ++f) masks.push_back(Sequence().Generate(f).mask);
-  std::vector<TrackerOptions> streams(3);
-  streams[0].filter.seed = 3;
-  streams[1].filter.seed = 5;
-  streams[2].brute_force = true;
-  auto run = [&](Tracker& tracker, std::vector<std::string>* estimates) {
-    for (const cv::Mat& mask : masks)
-      estimates->push_back(EstimateText(tracker.Process(mask).result));
-  };
-  std::vector<std::vector<std::string>> alone(streams.size());
-  for (size_t s = 0; s < streams.size(); ++s) {
-    Tracker tracker(Database(), Sequence().camera(), streams[s]);
-    run(tracker, &alone[s]);
-  }
-  const ViewSpectra spectra(Database());
-  std::vector<std::vector<std::string>> together(streams.size());
-  std::vector<std::thread> threads;
-  for (size_t s = 0; s < streams.size(); ++s) {
-    threads.emplace_back([&, s] {
-      Tracker tracker(spectra, Sequence().camera(), streams[s]);
-      EXPECT_EQ(&tracker.spectra(), &spectra);
-      EXPECT_EQ(&tracker.database(), &Database());
-      run(tracker, &together[s]);
-    });
-  }
-  for (std::thread& thread : threads) thread.join();
-  for (size_t s = 0; s < streams.size(); ++s) {
-    EXPECT_EQ(together[s].size(), masks.size());
-    EXPECT_EQ(together[s], alone[s]) << "stream " << s;
-  }
-  EXPECT_NE(alone[0], alone[1]);          // the streams did different work
-  EXPECT_GT(spectra.num_computed(), 0u);  // the trackers matched with the shared spectra
 }
 
 TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
