@@ -492,11 +492,10 @@ class PipelineSegmenter final : public Segmenter {
                  cv::Rect(0, 0, full.width, full.height);
     }
     // Moments of the component's box only: the rest of the mask is zero.
-    const cv::Moments moments = cv::moments(result->mask(box_full), true);
-    result->area_px = moments.m00;
-    if (moments.m00 > 0.0) {
-      result->centroid_px = Eigen::Vector2d(box_full.x + moments.m10 / moments.m00,
-                                            box_full.y + moments.m01 / moments.m00);
+    Eigen::Vector2d centroid;
+    result->area_px = PixelAreaCentroid(result->mask(box_full), &centroid);
+    if (result->area_px > 0.0) {
+      result->centroid_px = Eigen::Vector2d(box_full.x, box_full.y) + centroid;
     }
     result->status = SegmentationStatus::kOk;
     std::ostringstream text;

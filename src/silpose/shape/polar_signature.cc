@@ -101,12 +101,9 @@ cv::Rect NonZeroBoundingBox(const cv::Mat& mask) {
 
 namespace {
 
-// Area and centre of gravity of the non-zero pixels of `mask` (pixel centres at integer
-// coordinates), as cv::moments(mask, true) gives them but without its thread pool, whose start
-// costs more than the sums on a silhouette's bounding box. RowSum is wide enough for the sum of
-// the column indices of one row.
+// PixelAreaCentroid's sums. RowSum is wide enough for the sum of the column indices of one row.
 template <typename RowSum>
-double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
+double PixelSums(const cv::Mat& mask, Eigen::Vector2d* centroid) {
   int64_t count = 0;
   int64_t sum_x = 0;
   int64_t sum_y = 0;
@@ -130,13 +127,14 @@ double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
   return static_cast<double>(count);
 }
 
-double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
-  // 0 + 1 + ... + 46340 still fits 32 bits.
-  return mask.cols <= 46340 ? PixelAreaCentroid<int32_t>(mask, centroid)
-                            : PixelAreaCentroid<int64_t>(mask, centroid);
-}
-
 }  // namespace
+
+double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid) {
+  SILPOSE_ASSERT(mask.type() == CV_8UC1 && centroid != nullptr);
+  // 0 + 1 + ... + 46340 still fits 32 bits.
+  return mask.cols <= 46340 ? PixelSums<int32_t>(mask, centroid)
+                            : PixelSums<int64_t>(mask, centroid);
+}
 
 double PolygonAreaCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid) {
   double twice_area = 0.0;

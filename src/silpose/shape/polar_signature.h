@@ -107,6 +107,12 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
 /// Scans eight bytes at a time (about 10 µs for 640×480).
 cv::Rect NonZeroBoundingBox(const cv::Mat& mask);
 
+/// The number of non-zero pixels of a CV_8UC1 mask and their centre of gravity (pixel centres at
+/// integer coordinates; `centroid` is left as it is when there is none): what cv::moments(mask,
+/// true) gives as m00 and (m10, m01) / m00, without starting OpenCV's thread pool, which costs more
+/// than the sums over a silhouette's bounding box.
+double PixelAreaCentroid(const cv::Mat& mask, Eigen::Vector2d* centroid);
+
 /// Area centre of gravity of a closed polygon (shoelace formula); the vertex mean for a polygon
 /// without area. Returns the signed area (positive when counter-clockwise in a y-up frame).
 double PolygonAreaCentroid(std::span<const Eigen::Vector2d> polygon, Eigen::Vector2d* centroid);

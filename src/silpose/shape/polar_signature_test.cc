@@ -391,5 +391,30 @@ TEST(PolarSignature, AreaAndCentreAreThePixelMoments) {
   EXPECT_NEAR(result.signature.centroid_px.y(), moments.m01 / moments.m00, 1e-9);
 }
 
+TEST(PolarSignature, PixelAreaCentroidIsOpenCVsMomentsExactly) {
+  cv::RNG rng(11);
+  for (int trial = 0; trial < 50; ++trial) {
+    cv::Mat canvas = cv::Mat::zeros(rng.uniform(1, 120), rng.uniform(1, 200), CV_8UC1);
+    for (int i = 0; i < 4; ++i) {
+      cv::ellipse(canvas, {rng.uniform(0, canvas.cols), rng.uniform(0, canvas.rows)},
+                  {rng.uniform(0, 40), rng.uniform(0, 40)}, rng.uniform(0, 180), 0, 360,
+                  cv::Scalar(rng.uniform(1, 256)), cv::FILLED);
+    }
+    // Also a view whose rows are not contiguous.
+    const cv::Mat mask = trial % 2 == 0 || canvas.cols < 3
+                             ? canvas
+                             : canvas(cv::Rect(1, 0, canvas.cols - 2, canvas.rows));
+    const cv::Moments moments = cv::moments(mask, /*binaryImage=*/true);
+    Eigen::Vector2d centroid(-1.0, -1.0);
+    EXPECT_EQ(PixelAreaCentroid(mask, &centroid), moments.m00);
+    if (moments.m00 > 0.0) {
+      EXPECT_EQ(centroid.x(), moments.m10 / moments.m00) << "trial " << trial;
+      EXPECT_EQ(centroid.y(), moments.m01 / moments.m00) << "trial " << trial;
+    } else {
+      EXPECT_EQ(centroid, Eigen::Vector2d(-1.0, -1.0));  // left as it was
+    }
+  }
+}
+
 }  // namespace
 }  // namespace silpose
