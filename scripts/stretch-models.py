@@ -2,8 +2,9 @@
 """Makes a catalogue of many distinct objects from a few meshes, for measuring silpose at scale.
 
 Each input OBJ is written ten times into OUT_DIR, stretched along its axes by one of ten factor
-triples whose proportions differ pairwise by at least 20 % (stretches proportional to each other
-would give the same silhouettes up to size, which no silhouette method can tell apart):
+triples of which no two are proportional (each divided by its mean, any two differ by at least 0.14
+along some axis): stretches proportional to each other would give the same silhouettes up to size,
+which no silhouette method can tell apart.
 
     python3 scripts/stretch-models.py OUT_DIR MODEL.obj [MODEL.obj ...]
 
