@@ -1,4 +1,4 @@
-// Runtime of the particle filter (issue 3): one Step with 20 objects x 60 particles, signature
+// Runtime of the particle filter: one Step with 20 objects x 60 particles, signature
 // extraction from a 640 x 480 mask included (target <= 3 ms, one thread).
 // The reference models are read from ../shared/models beside the checkout (or
 // SILPOSE_BENCH_MODELS); without them the sample models stand in, and the labels say so.

@@ -1,4 +1,4 @@
-// Runtime benchmarks of the single-frame pipeline (issue 2 targets):
+// Runtime benchmarks of the single-frame pipeline:
 //   - one circular correlation (sweep of M),
 //   - signature extraction from a mask,
 //   - rendering one database view,

@@ -1,4 +1,4 @@
-// Throughput of `silpose track` on a 640 x 480 video, single thread, decoding included (issue 4):
+// Throughput of `silpose track` on a 640 x 480 video, single thread, decoding included:
 // the frames of an AVI file are read, segmented, described, filtered (20 objects x 60 particles
 // with the 20 reference models) and turned into a 6-DOF pose, as the command does per frame.
 //  - BM_TrackMaskVideo:  a mask video (lossless PNG frames), --segment mask

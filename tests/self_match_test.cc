@@ -1,4 +1,4 @@
-// The database self-consistency experiment (issue 2) on the project's own sample models: every view
+// The database self-consistency experiment on the project's own sample models: every view
 // of a 1000-view database, rendered again with a random roll at half and at double size, must come
 // back as its own view or a neighbour with the roll right to within 2 signature bins.
 
