@@ -53,6 +53,7 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
   blocks_.resize(blocks);
   block_once_ = std::make_unique<std::once_flag[]>(blocks);
   magnitudes_once_ = std::make_unique<std::once_flag[]>(blocks);
+  signatures_once_ = std::make_unique<std::once_flag[]>(blocks);
   once_ = std::make_unique<std::once_flag[]>(total);
   usable_.assign(total, 0);
   apparent_.assign(total, 0.0f);
@@ -91,17 +92,21 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
       }
     }
   }
-  table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + 2 * blocks * sizeof(std::once_flag) +
+  table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + 3 * blocks * sizeof(std::once_flag) +
                  total * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
                  stored_.capacity() + apparent_.capacity() * sizeof(float);
 }
 
 void ViewSpectra::OpenBlock(int model, int shell) const {
   if (database_.views_unchecked) {
-    database_.CheckBlock(model, shell, ViewBlock::kSignatures);
     if (stored_[static_cast<size_t>(model)] != 0) {
+      // Matching reads the stored spectra; the signatures only where a view is used (CheckView
+      // reads its values), and their block is checked by whoever reads more (CheckSignatures):
+      // hashing 4 MB of signatures per model and shell was most of a first frame's time.
       database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
       (void)Magnitudes(model, 0, shell);  // checks the magnitudes once
+    } else {
+      CheckSignatures(model, shell);  // the spectra are made from them
     }
   }
   blocks_[Index(model, shell)] =

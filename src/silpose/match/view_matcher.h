@@ -101,6 +101,16 @@ class ViewSpectra {
     }
     return Get(model, view, shell).magnitudes.span();
   }
+  /// For a database read with ViewChecks::kOnFirstUse: checks the signatures of model `model` in
+  /// shell `shell` against their checksum (ViewDatabase::CheckBlock), once. The matcher reads a
+  /// view's signature values (ViewDatabase::CheckView) but not the whole block when the spectra
+  /// come from the file; code that reads signatures for more than matching (the 6-DOF pose) calls
+  /// this first. Throws silpose::Error naming the file; nothing for a database checked at open.
+  void CheckSignatures(int model, int shell) const {
+    if (!database_.views_unchecked) return;
+    std::call_once(signatures_once_[Index(model, shell)],
+                   [&] { database_.CheckBlock(model, shell, ViewBlock::kSignatures); });
+  }
   /// Makes the spectra of every view of every model and shell not made yet, on `num_threads`
   /// threads (0 = all available cores; util/threads.h). Thread-safe with Get; the spectra are the
   /// ones Get makes. Afterwards Get allocates nothing.
@@ -146,8 +156,9 @@ class ViewSpectra {
   /// Per (model, shell): its views' spectra (allocated on first use), each made on first use.
   mutable std::vector<std::unique_ptr<SignatureSpectrum[]>> blocks_;
   std::unique_ptr<std::once_flag[]> block_once_;
-  /// Per (model, shell): its stored magnitudes checked (ViewChecks::kOnFirstUse).
+  /// Per (model, shell): its stored magnitudes, its signatures checked (ViewChecks::kOnFirstUse).
   std::unique_ptr<std::once_flag[]> magnitudes_once_;
+  std::unique_ptr<std::once_flag[]> signatures_once_;
   std::unique_ptr<std::once_flag[]> once_;
   std::vector<uint8_t> usable_;
   /// Per model: whether its spectra are the database's stored ones.

@@ -543,5 +543,67 @@ TEST(ViewSpectra, ACorruptStoredSpectrumIsNamedWhenTheMatcherFirstUsesIt) {
   std::filesystem::remove(path);
 }
 
+TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTheMatcher) {
+  SyntheticDatabase synthetic = MakeDatabase(2, 40, 1000, 33);
+  GiveModelsAnExtent(&synthetic.database);
+  StoreViewSpectra(&synthetic.database);
+  const std::string bytes = synthetic.database.Serialize();
+  // Where model 1's signature of view 7 lies in the file.
+  const auto keep = std::make_shared<std::string>(bytes);
+  const ViewDatabase good =
+      ViewDatabase::Deserialize(*keep, "test.db", ViewChecks::kOnFirstUse, keep);
+  const size_t at = static_cast<size_t>(
+      reinterpret_cast<const char*>(good.models[1].Signature(7, 0).data()) - keep->data());
+  // The lowest bit of a radius: every value still valid (CheckView passes), the checksum not.
+  auto corrupt = std::make_shared<std::string>(bytes);
+  (*corrupt)[at] = static_cast<char>((*corrupt)[at] ^ 0x01);
+  const ViewDatabase read =
+      ViewDatabase::Deserialize(*corrupt, "test.db", ViewChecks::kOnFirstUse, corrupt);
+  const ViewSpectra spectra(read);
+  ASSERT_TRUE(spectra.Stored(1));
+  ViewMatcher matcher(spectra);
+  std::mt19937 rng(8);
+  MatchOptions every_view;
+  every_view.exhaustive = true;
+  every_view.top_k = 80;
+  EXPECT_EQ(matcher.Match(RandomSignature(rng, 1000), every_view).size(), 80u);  // all matched
+  spectra.CheckSignatures(0, 0);  // model 0's signatures are fine
+  try {
+    spectra.CheckSignatures(1, 0);
+    ADD_FAILURE() << "a corrupt signature block passed its check";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what())
+                  .find("test.db: corrupt database (checksum mismatch in the signatures of model "
+                        "'model1', shell 0)"),
+              std::string::npos)
+        << error.what();
+  }
+  // Without stored spectra the matcher makes them from the signatures: it checks their block.
+  ViewDatabase plain = synthetic.database;
+  for (ModelViews& model : plain.models) model.spectra = StoredSpectra{};
+  const std::string plain_bytes = plain.Serialize();
+  const auto good_plain = std::make_shared<std::string>(plain_bytes);
+  const ViewDatabase plain_good =
+      ViewDatabase::Deserialize(*good_plain, "plain.db", ViewChecks::kOnFirstUse, good_plain);
+  const size_t plain_at = static_cast<size_t>(
+      reinterpret_cast<const char*>(plain_good.models[1].Signature(7, 0).data()) -
+      good_plain->data());
+  auto plain_corrupt = std::make_shared<std::string>(plain_bytes);
+  (*plain_corrupt)[plain_at] = static_cast<char>((*plain_corrupt)[plain_at] ^ 0x01);
+  const ViewDatabase plain_read =
+      ViewDatabase::Deserialize(*plain_corrupt, "plain.db", ViewChecks::kOnFirstUse, plain_corrupt);
+  const ViewSpectra made(plain_read);
+  EXPECT_FALSE(made.Stored(1));
+  (void)made.Get(0, 3);
+  try {
+    (void)made.Get(1, 3);
+    ADD_FAILURE() << "spectra were made from a corrupt signature block";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("checksum mismatch in the signatures"),
+              std::string::npos)
+        << error.what();
+  }
+}
+
 }  // namespace
 }  // namespace silpose

@@ -264,10 +264,13 @@ void Tracker::EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* 
     result.status += "-cut-by-border-no-pose";
     return;
   }
+  lap();
+  // The pose reads the view's signature: its block is checked first (a corrupt database is an
+  // error, not a frame without pose).
+  spectra_->CheckSignatures(result.object, shell);
   try {
     PoseFromSilhouetteOptions pose_options = options_.pose;
     pose_options.shell = shell;
-    lap();
     tracked->pose =
         EstimatePoseFromSilhouette(database_, result.object, view, result.roll_deg,
                                    tracked->silhouette.signature, camera_, pose_options);

@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
+#include "silpose/match/view_matcher.h"
 #include "silpose/pose/pose_error.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
@@ -122,6 +124,47 @@ TEST(Tracker, SameSeedSameResults) {
   const RunSummary first = TrackSequence(options);
   EXPECT_EQ(first.estimates, TrackSequence(options).estimates);
   EXPECT_EQ(first.estimates.size(), 80u);
+}
+
+TEST(Tracker, ACorruptSignatureBlockIsAnErrorAtThePoseNotAFrameWithoutPose) {
+  // A database file with stored spectra, read lazily: matching does not read whole signature
+  // blocks, the pose does, and checks the block first.
+  ViewDatabase with_spectra = Database();
+  StoreViewSpectra(&with_spectra);
+  const std::string bytes = with_spectra.Serialize();
+  const auto keep = std::make_shared<std::string>(bytes);
+  const ViewDatabase good =
+      ViewDatabase::Deserialize(*keep, "parts.db", ViewChecks::kOnFirstUse, keep);
+  auto corrupt = std::make_shared<std::string>(bytes);
+  const int cow = good.FindModel("cow");
+  ASSERT_GE(cow, 0);
+  for (int shell = 0; shell < good.num_shells(); ++shell) {  // the lowest bit of one radius each
+    const size_t at =
+        static_cast<size_t>(reinterpret_cast<const char*>(
+                                good.models[static_cast<size_t>(cow)].Signature(5, shell).data()) -
+                            keep->data());
+    (*corrupt)[at] = static_cast<char>((*corrupt)[at] ^ 0x01);
+  }
+  const ViewDatabase broken =
+      ViewDatabase::Deserialize(*corrupt, "parts.db", ViewChecks::kOnFirstUse, corrupt);
+  TrackerOptions options;
+  options.brute_force = true;
+  const cv::Mat cow_frame = Sequence().Generate(20).mask;
+  Tracker fine(good, Sequence().camera(), options);
+  const TrackedFrame tracked = fine.Process(cow_frame);
+  ASSERT_EQ(tracked.result.object_name, "cow");
+  EXPECT_TRUE(tracked.result.camera_from_object.has_value());
+  Tracker tracker(broken, Sequence().camera(), options);
+  try {
+    (void)tracker.Process(cow_frame);
+    ADD_FAILURE() << "a pose was computed from a corrupt signature block";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what())
+                  .find("parts.db: corrupt database (checksum mismatch in the signatures of model "
+                        "'cow'"),
+              std::string::npos)
+        << error.what();
+  }
 }
 
 TEST(Tracker, BruteForceMatchesEveryFrameAlone) {
