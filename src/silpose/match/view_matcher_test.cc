@@ -543,22 +543,27 @@ TEST(ViewSpectra, ACorruptStoredSpectrumIsNamedWhenTheMatcherFirstUsesIt) {
   std::filesystem::remove(path);
 }
 
+// `database` written to bytes with the lowest bit of model 1's radius of view 7 (shell 0) flipped
+// (every value still valid, so CheckView passes; the block's checksum does not), read lazily as
+// file `source`. The database keeps the bytes alive.
+ViewDatabase WithOneSignatureBitFlipped(const ViewDatabase& database, const std::string& source) {
+  const auto bytes = std::make_shared<std::string>(database.Serialize());
+  size_t at = 0;
+  {
+    const ViewDatabase good =
+        ViewDatabase::Deserialize(*bytes, source, ViewChecks::kOnFirstUse, bytes);
+    at = static_cast<size_t>(reinterpret_cast<const char*>(good.models[1].Signature(7, 0).data()) -
+                             bytes->data());
+  }
+  (*bytes)[at] = static_cast<char>((*bytes)[at] ^ 0x01);
+  return ViewDatabase::Deserialize(*bytes, source, ViewChecks::kOnFirstUse, bytes);
+}
+
 TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTheMatcher) {
   SyntheticDatabase synthetic = MakeDatabase(2, 40, 1000, 33);
   GiveModelsAnExtent(&synthetic.database);
   StoreViewSpectra(&synthetic.database);
-  const std::string bytes = synthetic.database.Serialize();
-  // Where model 1's signature of view 7 lies in the file.
-  const auto keep = std::make_shared<std::string>(bytes);
-  const ViewDatabase good =
-      ViewDatabase::Deserialize(*keep, "test.db", ViewChecks::kOnFirstUse, keep);
-  const size_t at = static_cast<size_t>(
-      reinterpret_cast<const char*>(good.models[1].Signature(7, 0).data()) - keep->data());
-  // The lowest bit of a radius: every value still valid (CheckView passes), the checksum not.
-  auto corrupt = std::make_shared<std::string>(bytes);
-  (*corrupt)[at] = static_cast<char>((*corrupt)[at] ^ 0x01);
-  const ViewDatabase read =
-      ViewDatabase::Deserialize(*corrupt, "test.db", ViewChecks::kOnFirstUse, corrupt);
+  const ViewDatabase read = WithOneSignatureBitFlipped(synthetic.database, "test.db");
   const ViewSpectra spectra(read);
   ASSERT_TRUE(spectra.Stored(1));
   ViewMatcher matcher(spectra);
@@ -581,17 +586,7 @@ TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTh
   // Without stored spectra the matcher makes them from the signatures: it checks their block.
   ViewDatabase plain = synthetic.database;
   for (ModelViews& model : plain.models) model.spectra = StoredSpectra{};
-  const std::string plain_bytes = plain.Serialize();
-  const auto good_plain = std::make_shared<std::string>(plain_bytes);
-  const ViewDatabase plain_good =
-      ViewDatabase::Deserialize(*good_plain, "plain.db", ViewChecks::kOnFirstUse, good_plain);
-  const size_t plain_at = static_cast<size_t>(
-      reinterpret_cast<const char*>(plain_good.models[1].Signature(7, 0).data()) -
-      good_plain->data());
-  auto plain_corrupt = std::make_shared<std::string>(plain_bytes);
-  (*plain_corrupt)[plain_at] = static_cast<char>((*plain_corrupt)[plain_at] ^ 0x01);
-  const ViewDatabase plain_read =
-      ViewDatabase::Deserialize(*plain_corrupt, "plain.db", ViewChecks::kOnFirstUse, plain_corrupt);
+  const ViewDatabase plain_read = WithOneSignatureBitFlipped(plain, "plain.db");
   const ViewSpectra made(plain_read);
   EXPECT_FALSE(made.Stored(1));
   (void)made.Get(0, 3);
