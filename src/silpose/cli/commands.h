@@ -28,6 +28,8 @@ void AddEvalBopCommand(CLI::App* eval);
 void AddEvalHandheldCommand(CLI::App* eval);
 /// `silpose eval confidence` (eval_confidence_command.cc), added under `eval`.
 void AddEvalConfidenceCommand(CLI::App* eval);
+/// `silpose eval scale` (eval_scale_command.cc), added under `eval`.
+void AddEvalScaleCommand(CLI::App* eval);
 
 /// The models an evaluation uses by default: the meshes in the folder named by the environment
 /// variable SILPOSE_EVAL_MODELS (a reference set), else the sample models. Throws silpose::Error

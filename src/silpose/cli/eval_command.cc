@@ -365,6 +365,7 @@ void AddEvalCommand(CLI::App& app) {
   AddEvalBopCommand(eval);
   AddEvalHandheldCommand(eval);
   AddEvalConfidenceCommand(eval);
+  AddEvalScaleCommand(eval);
 }
 
 }  // namespace silpose::cli

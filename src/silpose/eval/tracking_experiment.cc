@@ -82,9 +82,11 @@ void RunFilter(const ViewDatabase& database, const ViewSpectra& spectra, const F
   ParticleFilterOptions filter_options = options.filter;
   filter_options.particles_per_object = run->particles;
   filter_options.seed = run->seed;
-  filter_options.adaptive = false;
+  filter_options.adaptive = options.adaptive;
   filter_options.min_particles_per_object =
       std::min(filter_options.min_particles_per_object, run->particles);
+  filter_options.max_particles_per_object =
+      std::max(filter_options.max_particles_per_object, run->particles);
   ParticleFilter filter(database.sphere, spectra, filter_options);
   run->frames.resize(flight.masks.size());
   for (size_t k = 0; k < flight.masks.size(); ++k) {
@@ -95,6 +97,7 @@ void RunFilter(const ViewDatabase& database, const ViewSpectra& spectra, const F
     const FilterEstimate estimate =
         silhouette.ok() ? filter.Step(silhouette.signature.radii) : filter.Predict();
     frame.time_ms = Milliseconds(start, Clock::now());
+    frame.particles = static_cast<int>(filter.particles().size());
     frame.measured = silhouette.ok();
     frame.object = estimate.object;
     frame.view = estimate.view;
@@ -192,10 +195,11 @@ bool TrackingExperimentOptions::Check(std::string* error) const {
   if (repeats < 1) return fail("repeats must be >= 1");
   if (num_threads < 0) return fail("thread count must be >= 0");
   ParticleFilterOptions probe = filter;
-  probe.adaptive = false;
+  probe.adaptive = adaptive;
   for (int n : particle_counts) {
     probe.particles_per_object = n;
     probe.min_particles_per_object = std::min(filter.min_particles_per_object, n);
+    probe.max_particles_per_object = std::max(filter.max_particles_per_object, n);
     if (!probe.Check(&problem)) return fail("filter options: " + problem);
   }
   return true;

@@ -78,9 +78,14 @@ struct TrackingExperimentOptions {
   /// Runs per (model, particle count), seeds first_seed, first_seed + 1, ... >= 1.
   int repeats = 5;
   uint64_t first_seed = 1;
-  /// The filter's other options; particles_per_object and seed are set per run, adaptive is
-  /// forced off, min_particles_per_object is capped at the run's particle count.
+  /// The filter's other options; particles_per_object and seed are set per run, adaptive is set
+  /// from `adaptive` below, min_particles_per_object is capped at the run's particle count and
+  /// max_particles_per_object raised to it.
   ParticleFilterOptions filter;
+  /// Run the filter with KLD-sampling (ParticleFilterOptions::adaptive): each object starts with
+  /// the run's particle count and adapts within [min_particles_per_object,
+  /// max_particles_per_object]. Off in the paper's experiment, which fixes the count.
+  bool adaptive = false;
   /// Also run the brute-force baseline (one run per flight: it is deterministic).
   bool brute_force = true;
   /// Worker threads: runs (and brute-force frames) in parallel; 0 = all cores. 1 (default) keeps
@@ -106,6 +111,8 @@ struct TrackingFrameResult {
   /// symmetries of the model) when the estimate names that model; pose_error otherwise.
   double pose_error_symmetric = 2.0;
   double time_ms = 0.0;
+  /// Particles of all objects after the frame's step (filter runs; 0 for brute force).
+  int particles = 0;
 };
 
 /// Aggregates over frames (see the file comment).
