@@ -169,6 +169,37 @@ TEST_F(CliSynthHandheldTest, ThresholdMaskQualityDegradesTheMasksAndRecordsTheEf
   }
 }
 
+TEST_F(CliSynthHandheldTest, PassingOccludersCoverRunsOfFramesRecordedInTheGroundTruth) {
+  const std::string out = Path("passing");
+  const std::string common = "synth " + models_ + "/bunny.obj --trajectory handheld --frames 80 " +
+                             "--seed 6 --distance-range 4,5 -o ";
+  const CommandResult run = Silpose(common + out + " --passing 0.25 --pass-frames 10");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(out + "/groundtruth.csv");
+  ASSERT_EQ(rows.size(), 81u);
+  const size_t degradation = Column(rows[0], "degradation");
+  // Windows of 40 frames, one pass of 10 consecutive frames in each.
+  std::vector<int> runs;
+  for (size_t k = 1; k < rows.size(); ++k) {
+    const bool passing = rows[k][degradation] == "passing";
+    EXPECT_TRUE(passing || rows[k][degradation] == "none") << rows[k][degradation];
+    if (!passing) continue;
+    if (k == 1 || rows[k - 1][degradation] != "passing") runs.push_back(0);
+    ++runs.back();
+  }
+  EXPECT_EQ(runs, (std::vector<int>{10, 10}));
+
+  for (const auto& [arguments, option] : std::vector<std::pair<std::string, std::string>>{
+           {"--passing 1.5", "--passing"},
+           {"--passing 0.2 --pass-frames 1", "--pass-frames"},
+           {"--passing 0.2 --pass-size 0", "--pass-size"}}) {
+    const CommandResult bad = Silpose(common + Path("bad_passing") + " " + arguments);
+    EXPECT_NE(bad.exit_code, 0) << arguments;
+    EXPECT_EQ(Lines(bad.err), 1) << arguments << ": " << bad.err;
+    EXPECT_NE(bad.err.find(option), std::string::npos) << arguments << ": " << bad.err;
+  }
+}
+
 TEST_F(CliSynthHandheldTest, HelpDescribesTheHandheldOptions) {
   const CommandResult run = Silpose("synth --help");
   ASSERT_EQ(run.exit_code, 0);

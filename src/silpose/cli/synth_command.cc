@@ -262,6 +262,10 @@ DegradationOptions MakeDegradation(const SynthArguments& arguments) {
       {degradation.fingers >= 0 && degradation.fingers <= 5, "--fingers must be in [0, 5]"},
       {in(degradation.shadow, 0, 1), "--shadow must be in [0, 1]"},
       {degradation.specks >= 0 && degradation.specks <= 1000, "--specks must be in [0, 1000]"},
+      {in(degradation.passing_share, 0, 1), "--passing must be in [0, 1] (a share of the frames)"},
+      {degradation.pass_frames >= 2 && degradation.pass_frames <= 1000,
+       "--pass-frames must be in [2, 1000]"},
+      {in(degradation.pass_size, 1e-9, 2), "--pass-size must be in (0, 2]"},
   };
   for (const auto& check : checks) {
     if (!check.ok) ThrowError(check.message);
@@ -445,6 +449,18 @@ void AddSynthCommand(CLI::App& app) {
   command
       ->add_option("--occluder-size", degradation.occluder_size,
                    "Largest occluder semi-axes, relative to the silhouette's bounding box")
+      ->capture_default_str();
+  command
+      ->add_option("--passing", degradation.passing_share,
+                   "Share of frames, 0..1, in which an occluder passes in front of the object: it "
+                   "enters the silhouette from one side, crosses it and leaves on the other over "
+                   "--pass-frames frames (recorded as 'passing' in groundtruth.csv)")
+      ->capture_default_str();
+  command->add_option("--pass-frames", degradation.pass_frames, "Frames one passing occluder takes")
+      ->capture_default_str();
+  command
+      ->add_option("--pass-size", degradation.pass_size,
+                   "Largest semi-axes of the passing occluder, relative to the silhouette's size")
       ->capture_default_str();
   command
       ->add_option("--clutter", degradation.clutter_blobs,

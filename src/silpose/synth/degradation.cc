@@ -31,6 +31,7 @@ enum Stream : uint64_t {
   kStreamRagged = 8,
   kStreamHoles = 9,
   kStreamSpecks = 10,
+  kStreamPassing = 11,
 };
 
 // The "frame" of the per-sequence draws (the side of the hand, of the shadow).
@@ -324,11 +325,64 @@ bool ParseFrameDegradation(std::string_view name, FrameDegradation* degradation)
   return false;
 }
 
+namespace {
+
+// The window of passing_share's frames that `frame` falls in: windows of
+// round(pass_frames / passing_share) frames (at least pass_frames), each with one pass at a random
+// offset, and the random draws of that pass.
+struct PassWindow {
+  int64_t first_frame = 0;  // of the pass
+  std::mt19937_64 engine;   // the pass's geometry, drawn after the offset
+};
+
+PassWindow PassWindowOf(const DegradationOptions& options, int frame) {
+  const auto length = std::max<int64_t>(options.pass_frames,
+                                        std::llround(options.pass_frames / options.passing_share));
+  const int64_t window = frame / length;
+  PassWindow pass;
+  pass.engine = Engine(options, static_cast<int>(window), kStreamPassing);
+  const int64_t slack = length - options.pass_frames;
+  const auto offset = std::min(
+      slack, static_cast<int64_t>(Uniform01(pass.engine) * static_cast<double>(slack + 1)));
+  pass.first_frame = window * length + offset;
+  return pass;
+}
+
+// The passing occluder at `phase` of its pass: an ellipse moving in a straight line across the
+// silhouette's bounding box, from just outside one side (phase 0) to just outside the other (1).
+void PassingOccluder(const DegradationOptions& options, int frame, double phase,
+                     const cv::Rect& silhouette, cv::Mat* mask) {
+  PassWindow pass = PassWindowOf(options, frame);
+  std::mt19937_64& engine = pass.engine;
+  const Eigen::Vector2d direction = Direction(Uniform(engine, 0.0, 360.0));
+  const Eigen::Vector2d normal(-direction.y(), direction.x());
+  const double across = Uniform(engine, -0.25, 0.25);
+  const double size = std::max(silhouette.width, silhouette.height);
+  const double a = Uniform(engine, 0.5, 1.0) * options.pass_size * size;
+  const double b = Uniform(engine, 0.5, 1.0) * options.pass_size * size;
+  const double angle_deg = Uniform(engine, 0.0, 180.0);
+  // Half extents of the box along the path and across it.
+  const auto half_extent = [&](const Eigen::Vector2d& u) {
+    return 0.5 * (std::abs(u.x()) * silhouette.width + std::abs(u.y()) * silhouette.height);
+  };
+  const Eigen::Vector2d centre(silhouette.x + 0.5 * silhouette.width - 0.5,
+                               silhouette.y + 0.5 * silhouette.height - 0.5);
+  const double reach = half_extent(direction) + std::max(a, b);
+  const Eigen::Vector2d position = centre + normal * (across * 2.0 * half_extent(normal)) +
+                                   direction * ((2.0 * phase - 1.0) * reach);
+  const cv::Size axes(std::max(1, static_cast<int>(std::lround(a))),
+                      std::max(1, static_cast<int>(std::lround(b))));
+  cv::ellipse(*mask, ToPoint(position), axes, angle_deg, 0.0, 360.0, cv::Scalar(0), cv::FILLED,
+              cv::LINE_8);
+}
+
+}  // namespace
+
 const std::vector<MaskEffect>& AllMaskEffects() {
   static const std::vector<MaskEffect> effects = {
-      kMaskEffectErode,   kMaskEffectDilate, kMaskEffectShadow, kMaskEffectStick,
-      kMaskEffectFingers, kMaskEffectRagged, kMaskEffectHoles,  kMaskEffectOccluders,
-      kMaskEffectClutter, kMaskEffectSpecks, kMaskEffectNoise};
+      kMaskEffectErode,   kMaskEffectDilate,  kMaskEffectShadow, kMaskEffectStick,
+      kMaskEffectFingers, kMaskEffectRagged,  kMaskEffectHoles,  kMaskEffectOccluders,
+      kMaskEffectPassing, kMaskEffectClutter, kMaskEffectSpecks, kMaskEffectNoise};
   return effects;
 }
 
@@ -350,6 +404,8 @@ const char* MaskEffectName(MaskEffect effect) {
       return "holes";
     case kMaskEffectOccluders:
       return "occluders";
+    case kMaskEffectPassing:
+      return "passing";
     case kMaskEffectClutter:
       return "clutter";
     case kMaskEffectSpecks:
@@ -450,6 +506,18 @@ bool DegradationOptions::Check(std::string* error) const {
   if (!std::isfinite(occluder_size) || occluder_size <= 0.0 || occluder_size > 2.0) {
     return Fail(error, "occluder size must be in (0, 2] (relative to the silhouette)");
   }
+  if (!InUnitInterval(passing_share)) {
+    return Fail(error,
+                "passing share must be in [0, 1] (the share of frames with a passing occluder)");
+  }
+  if (pass_frames < 2 || pass_frames > 1000) {
+    return Fail(error, "pass frames must be in [2, 1000] (frames per pass)");
+  }
+  if (!std::isfinite(pass_size) || pass_size <= 0.0 || pass_size > 2.0) {
+    return Fail(
+        error,
+        "pass size must be in (0, 2] (the passing occluder's size relative to the silhouette)");
+  }
   if (clutter_blobs < 0 || clutter_blobs > 100) {
     return Fail(error, "clutter blobs must be in [0, 100]");
   }
@@ -494,8 +562,9 @@ bool DegradationOptions::Check(std::string* error) const {
 
 bool DegradationOptions::Any() const {
   return noise_fraction > 0.0 || erode_px > 0 || dilate_px > 0 || occluders > 0 ||
-         clutter_blobs > 0 || shadow > 0.0 || stick || fingers > 0 || ragged_px > 0.0 ||
-         holes > 0 || specks > 0 || missed_probability > 0.0 || bad_probability > 0.0;
+         passing_share > 0.0 || clutter_blobs > 0 || shadow > 0.0 || stick || fingers > 0 ||
+         ragged_px > 0.0 || holes > 0 || specks > 0 || missed_probability > 0.0 ||
+         bad_probability > 0.0;
 }
 
 uint32_t AppliedMaskEffects(const DegradationOptions& options, int frame) {
@@ -512,10 +581,19 @@ uint32_t AppliedMaskEffects(const DegradationOptions& options, int frame) {
   set(options.ragged_px > 0.0, kMaskEffectRagged);
   set(options.holes > 0, kMaskEffectHoles);
   set(options.occluders > 0, kMaskEffectOccluders);
+  set(PassPhase(options, frame) >= 0.0, kMaskEffectPassing);
   set(options.clutter_blobs > 0, kMaskEffectClutter);
   set(options.specks > 0, kMaskEffectSpecks);
   set(options.noise_fraction > 0.0, kMaskEffectNoise);
   return effects;
+}
+
+double PassPhase(const DegradationOptions& options, int frame) {
+  if (!(options.passing_share > 0.0) || frame < 0) return -1.0;
+  const PassWindow window = PassWindowOf(options, frame);
+  const int64_t j = frame - window.first_frame;
+  if (j < 0 || j >= options.pass_frames) return -1.0;
+  return (static_cast<double>(j) + 0.5) / options.pass_frames;
 }
 
 FrameDegradation ChooseFrameDegradation(const DegradationOptions& options, int frame) {
@@ -560,6 +638,10 @@ FrameDegradation DegradeMask(const DegradationOptions& options, int frame, cv::M
       FillEllipse(engine, centre, RandomSemiAxes(engine, options.occluder_size, silhouette), 0,
                   mask);
     }
+  }
+  if (in_view) {
+    const double phase = PassPhase(options, frame);
+    if (phase >= 0.0) PassingOccluder(options, frame, phase, silhouette, mask);
   }
   if (options.clutter_blobs > 0) {
     std::mt19937_64 engine = Engine(options, frame, kStreamClutter);

@@ -1,8 +1,9 @@
 #pragma once
 // Controlled degradations of rendered silhouettes, imitating what a real segmentation delivers:
-// eroded or dilated borders, pixel noise, occlusion, background clutter, frames where the object is
-// not found at all ("missed") and frames that are badly segmented ("bad"); and the typical flaws of
-// a colour threshold's mask: a ragged boundary, small holes, a stick or fingers holding the object,
+// eroded or dilated borders, pixel noise, occlusion (random in each frame, or an occluder passing
+// in front of the object over several frames), background clutter, frames where the object is not
+// found at all ("missed") and frames that are badly segmented ("bad"); and the typical flaws of a
+// colour threshold's mask: a ragged boundary, small holes, a stick or fingers holding the object,
 // a shadow merged into the silhouette, small false-positive specks (MaskQuality::kThreshold
 // combines them).
 //
@@ -48,12 +49,13 @@ enum MaskEffect : uint32_t {
   kMaskEffectClutter = 1u << 8,
   kMaskEffectSpecks = 1u << 9,
   kMaskEffectNoise = 1u << 10,
+  kMaskEffectPassing = 1u << 11,
 };
 
 /// Every MaskEffect, in the order DegradeMask applies them.
 const std::vector<MaskEffect>& AllMaskEffects();
-/// "erode", "dilate", "shadow", "stick", "fingers", "ragged", "holes", "occluders", "clutter",
-/// "specks", "noise".
+/// "erode", "dilate", "shadow", "stick", "fingers", "ragged", "holes", "occluders", "passing",
+/// "clutter", "specks", "noise".
 const char* MaskEffectName(MaskEffect effect);
 
 /// The `degradation` column of groundtruth.csv: "missed" for a missed frame; otherwise "bad" (for a
@@ -66,7 +68,8 @@ bool ParseDegradationLabel(std::string_view label, FrameDegradation* degradation
                            uint32_t* mask_effects);
 
 /// The degradations applied to every frame, in this order: erosion, dilation, shadow, stick,
-/// fingers, ragged boundary, holes, occluders, clutter, specks, (bad frame), salt-and-pepper noise.
+/// fingers, ragged boundary, holes, occluders, a passing occluder, clutter, specks, (bad frame),
+/// salt-and-pepper noise.
 /// All off by default. Sizes "relative to the silhouette" are fractions of the width and height of
 /// the bounding box of the rendered (undegraded) silhouette; its "size" is the larger of the two.
 /// The effects that imitate a colour threshold's mask (shadow ... specks) are those of
@@ -89,6 +92,19 @@ struct DegradationOptions {
   /// Largest occluder semi-axes relative to the silhouette's bounding box, in (0, 2]; each
   /// occluder's are drawn in [0.5, 1] times that.
   double occluder_size = 0.25;
+  /// Passing occluders: the share of frames, in [0, 1), in which an occluder passes in front of the
+  /// object (a hand, a tool, a person walking by): a filled ellipse that enters the silhouette's
+  /// bounding box from one side, crosses it along a straight line and leaves on the other side
+  /// over pass_frames consecutive frames, removing object pixels. The frames are cut into windows
+  /// of pass_frames / passing_share frames, and each window holds one pass at a random offset;
+  /// each pass has its own direction, offset from the centre (up to a quarter of the box across
+  /// the direction) and occluder. 0 = off.
+  double passing_share = 0.0;
+  /// Frames one pass takes, in [2, 1000].
+  int pass_frames = 20;
+  /// The passing occluder's semi-axes relative to the silhouette's size (the larger side of its
+  /// bounding box), in (0, 2]; each pass draws them in [0.5, 1] times that.
+  double pass_size = 0.35;
   /// Clutter blobs per frame, in [0, 100]: filled ellipses of object pixels anywhere in the image
   /// (spurious segments of the background).
   int clutter_blobs = 0;
@@ -161,12 +177,19 @@ bool ParseMaskQuality(std::string_view name, MaskQuality* quality);
 /// probabilities, are kept; kPerfect changes nothing).
 DegradationOptions WithMaskQuality(DegradationOptions options, MaskQuality quality);
 
+/// Where frame `frame` is in a pass of the passing occluder: the fraction of the pass done at the
+/// frame's middle, in (0, 1) ((j + 0.5) / pass_frames in the pass's j-th frame), or a negative
+/// value if no pass covers the frame (or passing_share is 0). Depends only on the seed, the frame
+/// and the passing options.
+double PassPhase(const DegradationOptions& options, int frame);
+
 /// Which kind frame `frame` is (depends only on seed, frame and the two probabilities).
 FrameDegradation ChooseFrameDegradation(const DegradationOptions& options, int frame);
 
 /// The effects DegradeMask applies to frame `frame` (MaskEffect flags): those the options switch
-/// on, none for a missed frame. (An effect may leave a frame unchanged: no stick without an object
-/// in view, no hole in a silhouette too thin for one.)
+/// on (kMaskEffectPassing only in the frames of a pass, PassPhase), none for a missed frame. (An
+/// effect may leave a frame unchanged: no stick without an object in view, no hole in a silhouette
+/// too thin for one.)
 uint32_t AppliedMaskEffects(const DegradationOptions& options, int frame);
 
 /// Degrades the rendered CV_8UC1 mask (255 = object, 0 = not) of frame `frame` in place, as the

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -475,6 +477,121 @@ TEST(ThresholdEffects, InvalidValuesAreRefusedWithTheirName) {
   options = DegradationOptions();
   options.stick_width_px = 0.0;
   refused(options, "stick");
+}
+
+}  // namespace
+}  // namespace silpose
+
+// ----- an occluder passing in front of the object
+// -------------------------------------------------
+
+namespace silpose {
+namespace {
+
+TEST(PassingOccluder, PassesAreRunsOfPassFramesCoveringTheRequestedShare) {
+  DegradationOptions options;
+  options.passing_share = 0.3;
+  options.pass_frames = 20;
+  EXPECT_TRUE(options.Any());
+  const int frames = 67 * 30;  // windows of round(20 / 0.3) = 67 frames
+  int covered = 0, runs = 0;
+  double previous = -1.0;
+  for (int frame = 0; frame < frames; ++frame) {
+    const double phase = PassPhase(options, frame);
+    const uint32_t effects = AppliedMaskEffects(options, frame);
+    EXPECT_EQ((effects & kMaskEffectPassing) != 0, phase >= 0.0) << frame;
+    if (phase >= 0.0) {
+      ++covered;
+      EXPECT_LT(phase, 1.0);
+      if (previous < 0.0) {
+        ++runs;
+        EXPECT_DOUBLE_EQ(phase, 0.5 / 20.0) << "a pass starts at its beginning, frame " << frame;
+      } else {
+        EXPECT_NEAR(phase - previous, 1.0 / 20.0, 1e-12) << frame;
+      }
+    } else if (previous >= 0.0) {
+      EXPECT_DOUBLE_EQ(previous, 19.5 / 20.0) << "a pass ends at its end, frame " << frame;
+    }
+    previous = phase;
+  }
+  EXPECT_EQ(runs, 30);
+  EXPECT_EQ(covered, 30 * 20);
+  // The passes do not all sit at the same place in their windows.
+  std::set<int> starts;
+  for (int frame = 1; frame < frames; ++frame) {
+    if (PassPhase(options, frame) >= 0.0 && PassPhase(options, frame - 1) < 0.0) {
+      starts.insert(frame % 67);
+    }
+  }
+  EXPECT_GT(starts.size(), 10u);
+  options.passing_share = 0.0;
+  EXPECT_LT(PassPhase(options, 5), 0.0);
+  EXPECT_FALSE(options.Any());
+}
+
+TEST(PassingOccluder, EntersCrossesAndLeavesRemovingObjectPixelsOnly) {
+  DegradationOptions options;
+  options.passing_share = 0.5;
+  options.pass_frames = 16;
+  options.pass_size = 0.3;
+  const cv::Mat original = LargeSilhouette();
+  int passes_seen = 0;
+  for (int first = 1; first < 400 && passes_seen < 5; ++first) {
+    if (!(PassPhase(options, first) >= 0.0 && PassPhase(options, first - 1) < 0.0)) continue;
+    ++passes_seen;
+    std::vector<int> removed;
+    std::vector<cv::Point2d> where;
+    for (int j = 0; j < options.pass_frames; ++j) {
+      const cv::Mat mask = DegradedLarge(options, first + j);
+      EXPECT_EQ(Extra(mask, original), 0) << "frame " << first + j;
+      cv::Mat gone;
+      cv::bitwise_and(original, ~mask, gone);
+      removed.push_back(cv::countNonZero(gone));
+      where.push_back(removed.back() > 0 ? Centroid(gone) : cv::Point2d(0, 0));
+    }
+    // Enters from outside and leaves: little is covered at the ends, much in the middle.
+    const int middle = *std::max_element(removed.begin() + 6, removed.begin() + 10);
+    EXPECT_GT(middle, 200) << "pass at frame " << first;
+    EXPECT_LT(removed.front(), middle / 3) << "pass at frame " << first;
+    EXPECT_LT(removed.back(), middle / 3) << "pass at frame " << first;
+    // It moves one way: the covered part's centre advances along the pass.
+    const cv::Point2d direction = where[11] - where[4];
+    ASSERT_GT(cv::norm(direction), 10.0) << "pass at frame " << first;
+    EXPECT_GT((where[8] - where[4]).dot(direction), 0.0);
+    EXPECT_GT((where[11] - where[8]).dot(direction), 0.0);
+    // Outside the pass nothing changes.
+    EXPECT_EQ(Different(DegradedLarge(options, first - 1), original), 0);
+    first += options.pass_frames;
+  }
+  EXPECT_EQ(passes_seen, 5);
+}
+
+TEST(PassingOccluder, IsRecordedInTheLabelAndChecked) {
+  DegradationOptions options;
+  options.passing_share = 0.4;
+  int frame = 0;
+  while (PassPhase(options, frame) < 0.0) ++frame;
+  const std::string label =
+      DegradationLabel(FrameDegradation::kNone, AppliedMaskEffects(options, frame));
+  EXPECT_EQ(label, "passing");
+  FrameDegradation kind;
+  uint32_t effects = 0;
+  ASSERT_TRUE(ParseDegradationLabel("occluders+passing", &kind, &effects));
+  EXPECT_EQ(effects, kMaskEffectOccluders | kMaskEffectPassing);
+  const auto refused = [](DegradationOptions o, const char* word) {
+    std::string error;
+    EXPECT_FALSE(o.Check(&error)) << word;
+    EXPECT_NE(error.find(word), std::string::npos) << error;
+  };
+  DegradationOptions bad;
+  bad.passing_share = 1.5;
+  refused(bad, "passing occluder");
+  bad = DegradationOptions();
+  bad.pass_frames = 1;
+  refused(bad, "frames per pass");
+  bad = DegradationOptions();
+  bad.pass_size = 0.0;
+  refused(bad, "passing occluder's size");
 }
 
 }  // namespace
