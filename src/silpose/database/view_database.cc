@@ -1,8 +1,10 @@
 #include "silpose/database/view_database.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
+#include <complex>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -445,7 +447,83 @@ ViewDatabase ViewDatabase::Read(const std::filesystem::path& path, ViewChecks ch
   return Deserialize(file->bytes(), path.string(), checks, file);
 }
 
+namespace {
+
+// Independent partial results per lane, so that the compiler vectorises the loops below without
+// reordering any floating-point sum.
+constexpr size_t kCheckLanes = 8;
+
+// Whether all `count` values are finite and >= 0 (a NaN or an infinity makes the sum non-finite);
+// their sum in *sum.
+bool FiniteNonNegative(const float* values, size_t count, double* sum) {
+  std::array<double, kCheckLanes> sums{};
+  std::array<float, kCheckLanes> lowest;
+  lowest.fill(std::numeric_limits<float>::max());
+  size_t i = 0;
+  for (; i + kCheckLanes <= count; i += kCheckLanes) {
+    for (size_t j = 0; j < kCheckLanes; ++j) {
+      const float v = values[i + j];
+      sums[j] += v;
+      lowest[j] = v < lowest[j] ? v : lowest[j];
+    }
+  }
+  double total = 0.0;
+  float low = std::numeric_limits<float>::max();
+  for (; i < count; ++i) {
+    total += values[i];
+    low = values[i] < low ? values[i] : low;
+  }
+  for (size_t j = 0; j < kCheckLanes; ++j) {
+    total += sums[j];
+    low = lowest[j] < low ? lowest[j] : low;
+  }
+  *sum = total;
+  return std::isfinite(total) && low >= 0.0f;
+}
+
+// Whether a stored spectrum's values are surely valid (finite, magnitudes in [0, 1], |c| clearly
+// below 1): a quick test that vectorises; values it does not pass are checked one by one.
+bool SpectrumSurelyValid(const std::complex<float>* coefficients, const float* magnitudes,
+                         size_t count) {
+  const float* parts = reinterpret_cast<const float*>(coefficients);
+  std::array<float, kCheckLanes> sums{}, largest_norm{};
+  for (size_t i = 0; i + kCheckLanes <= 2 * count; i += kCheckLanes) {
+    for (size_t j = 0; j < kCheckLanes; j += 2) {
+      const float re = parts[i + j];
+      const float im = parts[i + j + 1];
+      const float norm = re * re + im * im;
+      sums[j] += re + im;
+      largest_norm[j] = norm > largest_norm[j] ? norm : largest_norm[j];
+    }
+  }
+  double total = 0.0;
+  float norm = 0.0f;
+  for (size_t k = 2 * count / kCheckLanes * kCheckLanes / 2; k < count; ++k) {
+    total += coefficients[k].real() + coefficients[k].imag();
+    norm = std::max(norm, std::norm(coefficients[k]));
+  }
+  for (size_t j = 0; j < kCheckLanes; ++j) {
+    total += sums[j];
+    norm = std::max(norm, largest_norm[j]);
+  }
+  double magnitude_sum = 0.0;
+  if (!FiniteNonNegative(magnitudes, count, &magnitude_sum)) return false;
+  float largest_magnitude = 0.0f;
+  for (size_t k = 0; k < count; ++k) {
+    largest_magnitude = magnitudes[k] > largest_magnitude ? magnitudes[k] : largest_magnitude;
+  }
+  // A NaN in a coefficient makes the total NaN and fails the test.
+  return std::isfinite(total) && norm <= 0.999f && largest_magnitude <= 1.0f;
+}
+
+}  // namespace
+
 void ViewDatabase::CheckView(int model_index, size_t record) const {
+  CheckViewSignature(model_index, record);
+  CheckViewSpectrum(model_index, record);
+}
+
+void ViewDatabase::CheckViewSignature(int model_index, size_t record) const {
   const ModelViews& model = models[static_cast<size_t>(model_index)];
   const size_t per_shell = static_cast<size_t>(sphere.num_views());
   const auto fail = [&](const char* problem) {
@@ -456,29 +534,34 @@ void ViewDatabase::CheckView(int model_index, size_t record) const {
   const size_t length = static_cast<size_t>(signature_length());
   const float* radii = model.signatures.data() + record * length;
   double sum = 0.0;
-  bool valid = true;
-  for (size_t i = 0; i < length; ++i) {
-    const float r = radii[i];
-    valid = valid && std::isfinite(r) && r >= 0.0f;
-    sum += r;
-  }
-  if (!valid) fail("an invalid signature value");
+  if (!FiniteNonNegative(radii, length, &sum)) fail("an invalid signature value");
   const bool described = model.views[record].status == SignatureStatus::kOk;
   // A described view's radii are divided by their mean: their mean is 1.
   if (described && std::abs(sum / static_cast<double>(length) - 1.0) > 1e-3) {
     fail("a signature that is not normalised");
   }
+}
+
+void ViewDatabase::CheckViewSpectrum(int model_index, size_t record) const {
+  const ModelViews& model = models[static_cast<size_t>(model_index)];
   const StoredSpectra& spectra = model.spectra;
   if (spectra.empty()) return;
   const size_t h = spectra.harmonics;
   const std::complex<float>* coefficients = spectra.coefficients.data() + record * h;
   const float* magnitudes = spectra.magnitudes.data() + record * h;
+  if (SpectrumSurelyValid(coefficients, magnitudes, h)) return;
+  bool valid = true;
   for (size_t k = 0; k < h; ++k) {
     valid = valid && std::isfinite(coefficients[k].real()) &&
             std::isfinite(coefficients[k].imag()) && std::isfinite(magnitudes[k]) &&
             magnitudes[k] >= 0.0f && std::abs(coefficients[k]) <= 1.0f && magnitudes[k] <= 1.0f;
   }
-  if (!valid) fail("an invalid stored spectrum value");
+  if (!valid) {
+    const size_t per_shell = static_cast<size_t>(sphere.num_views());
+    ThrowError(source.empty() ? std::string("database") : source, ": corrupt database: model '",
+               model.name, "' view ", record % per_shell, " of shell ", record / per_shell,
+               " has an invalid stored spectrum value");
+  }
 }
 
 void ViewDatabase::CheckBlock(int model_index, int shell, ViewBlock block) const {

@@ -177,9 +177,11 @@ enum class ViewChecks {
   kAtOpen,
   /// Format 4 files: the checksum of everything but the bulk at once; each shell's block of
   /// signatures, coefficients or magnitudes against its own checksum (ViewDatabase::CheckBlock)
-  /// and each view's values (ViewDatabase::CheckView) when the matcher first uses them
-  /// (ViewSpectra calls both), so that opening a large database reads little of it. Older
-  /// formats: the whole file's checksum at once, the views' values on first use.
+  /// and each view's values (ViewDatabase::CheckView) when first used: ViewSpectra checks the
+  /// blocks and views it reads (with stored spectra only those, not the signatures), and
+  /// ViewSpectra::CheckSignatures a signature block and its views' signatures before the pose
+  /// reads one; so opening a large database reads little of it. Older formats: the whole file's
+  /// checksum at once, the views' values on first use.
   kOnFirstUse,
 };
 
@@ -227,10 +229,14 @@ class ViewDatabase {
   /// silpose builds; without the symmetries). Throws silpose::Error for another version.
   std::string Serialize(uint32_t format_version = kFormatVersion) const;
 
-  /// Checks the values of record `record` (shell-major index) of `model`: a signature of finite,
-  /// non-negative radii with mean 1 if the view was described, else all 0; stored spectrum values
-  /// finite and consistent with the record. Throws silpose::Error naming `source`.
+  /// Checks the values of record `record` (shell-major index) of `model`: CheckViewSignature and
+  /// CheckViewSpectrum. Throws silpose::Error naming `source`.
   void CheckView(int model, size_t record) const;
+  /// The record's signature: finite, non-negative radii with mean 1 if the view was described.
+  void CheckViewSignature(int model, size_t record) const;
+  /// The record's stored spectrum (if the model has stored spectra): finite values, coefficients
+  /// of modulus at most 1, magnitudes in [0, 1].
+  void CheckViewSpectrum(int model, size_t record) const;
   /// CheckView for every view of every model.
   void CheckAllViews() const;
   /// Checks one shell's block of `model` against its checksum in the file (nothing to check for

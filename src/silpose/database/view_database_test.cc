@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
+#include <complex>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -404,6 +406,80 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
                       "stored spectrum value"),
             std::string::npos);
   EXPECT_NE(ErrorOf(crafted.Serialize()).find("invalid stored spectrum value"), std::string::npos);
+}
+
+// CheckView tests values in lanes with a scalar tail: a bad value is found at every position, of a
+// signature and of a spectrum whose lengths are not multiples of the lanes, and the values at the
+// edge of the valid range are judged as one by one.
+TEST(ViewDatabaseChecks, AnInvalidValueIsFoundWhereverItIs) {
+  constexpr size_t kLength = 37;
+  constexpr size_t kHarmonics = 13;
+  ViewDatabase database = SmallDatabase();
+  database.parameters.signature.length = static_cast<int>(kLength);
+  ModelViews& model = database.models[0];
+  model.signatures.resize(model.views.size() * kLength);
+  std::fill_n(model.signatures.mutable_data(), model.signatures.size(), 1.0f);
+  StoredSpectra& spectra = model.spectra;
+  spectra.smoothing_deg = 2.0;
+  spectra.harmonics = kHarmonics;
+  spectra.kinds = std::vector<uint8_t>(model.views.size(), StoredSpectra::kPresent);
+  spectra.coefficients = std::vector<std::complex<float>>(model.views.size() * kHarmonics,
+                                                          std::complex<float>(0.3f, -0.2f));
+  spectra.magnitudes = std::vector<float>(model.views.size() * kHarmonics, 0.36f);
+  const size_t record = 14;  // view 2 of shell 1
+  const auto error = [&] {
+    try {
+      database.CheckView(0, record);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  ASSERT_EQ(error(), "");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+
+  float* radii = model.signatures.mutable_data() + record * kLength;
+  for (size_t i = 0; i < kLength; ++i) {
+    for (const float bad : {nan, inf, -inf, -0.5f}) {
+      radii[i] = bad;
+      EXPECT_NE(error().find("view 2 of shell 1 has an invalid signature value"), std::string::npos)
+          << "radius " << i << " = " << bad << ": " << error();
+    }
+    radii[i] = 1.0f + 0.03f;  // the mean moves by 0.03 / 37 < 1e-3
+    EXPECT_EQ(error(), "") << i;
+    radii[i] = 1.0f + 0.05f;  // by 0.05 / 37 > 1e-3
+    EXPECT_NE(error().find("not normalised"), std::string::npos) << i;
+    radii[i] = 1.0f;
+  }
+
+  std::complex<float>* coefficients = spectra.coefficients.mutable_data() + record * kHarmonics;
+  float* magnitudes = spectra.magnitudes.mutable_data() + record * kHarmonics;
+  for (size_t k = 0; k < kHarmonics; ++k) {
+    for (const std::complex<float> bad :
+         {std::complex<float>(nan, 0.0f), std::complex<float>(0.0f, inf),
+          std::complex<float>(-inf, 0.0f), std::complex<float>(1.001f, 0.0f),
+          std::complex<float>(0.0f, -0.72f * 1.42f)}) {
+      coefficients[k] = bad;
+      EXPECT_NE(error().find("invalid stored spectrum value"), std::string::npos)
+          << "coefficient " << k << " = " << bad.real() << ", " << bad.imag();
+    }
+    // Near |c| = 1 the values are judged exactly: 0.9999 is valid, and (0.6, 0.8) as its float
+    // modulus says.
+    coefficients[k] = {0.9999f, 0.0f};
+    EXPECT_EQ(error(), "") << k;
+    coefficients[k] = {0.6f, 0.8f};
+    EXPECT_EQ(error().empty(), std::abs(coefficients[k]) <= 1.0f) << k;
+    coefficients[k] = {0.3f, -0.2f};
+    for (const float bad : {nan, inf, -0.1f, 1.5f}) {
+      magnitudes[k] = bad;
+      EXPECT_NE(error().find("invalid stored spectrum value"), std::string::npos)
+          << "magnitude " << k << " = " << bad;
+    }
+    magnitudes[k] = 1.0f;
+    EXPECT_EQ(error(), "") << k;
+    magnitudes[k] = 0.36f;
+  }
 }
 
 TEST(ViewDatabaseFile, EveryTruncationIsRefused) {

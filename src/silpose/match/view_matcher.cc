@@ -100,9 +100,9 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
 void ViewSpectra::OpenBlock(int model, int shell) const {
   if (database_.views_unchecked) {
     if (stored_[static_cast<size_t>(model)] != 0) {
-      // Matching reads the stored spectra; the signatures only where a view is used (CheckView
-      // reads its values), and their block is checked by whoever reads more (CheckSignatures):
-      // hashing 4 MB of signatures per model and shell was most of a first frame's time.
+      // Matching reads the stored spectra only; the signatures' block and values are checked by
+      // whoever reads them (CheckSignatures): hashing 4 MB of signatures per model and shell was
+      // most of a first frame's time.
       database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
       (void)Magnitudes(model, 0, shell);  // checks the magnitudes once
     } else {
@@ -120,10 +120,20 @@ void ViewSpectra::Compute(int model, int view, int shell) const {
   const size_t record =
       static_cast<size_t>(shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
   // A database read with ViewChecks::kOnFirstUse: this view's values are checked now (throws
-  // silpose::Error naming the file; call_once lets the next Get try, and fail, again).
-  if (database_.views_unchecked) database_.CheckView(model, record);
+  // silpose::Error naming the file; call_once lets the next Get try, and fail, again). With stored
+  // spectra only the spectrum: the matcher reads nothing else, and reading every used view's
+  // signature was most of the first frames' time; its signature is checked where it is read
+  // (CheckSignatures).
+  const bool from_file = stored_[static_cast<size_t>(model)] != 0;
+  if (database_.views_unchecked) {
+    if (from_file) {
+      database_.CheckViewSpectrum(model, record);
+    } else {
+      database_.CheckView(model, record);
+    }
+  }
   if (views.Record(view, shell).status != SignatureStatus::kOk) return;
-  if (stored_[static_cast<size_t>(model)] != 0) {
+  if (from_file) {
     // The database's own spectrum, where the file is mapped: nothing made, nothing copied.
     const StoredSpectra& stored = views.spectra;
     SignatureSpectrum& spectrum = blocks_[Index(model, shell)][static_cast<size_t>(view)];

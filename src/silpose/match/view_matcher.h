@@ -55,8 +55,9 @@ struct MatchStats {
 
 /// Holds the spectra of every database view, in every distance shell. A database written with its
 /// spectra (StoreViewSpectra, as build-db does) lends them where the file is mapped: nothing is
-/// transformed or copied, and a view's values are checked when it is first used
-/// (ViewDatabase::CheckView). Otherwise a view's spectrum is
+/// transformed or copied, and a view's spectrum values are checked when it is first used
+/// (ViewDatabase::CheckViewSpectrum; its signature where the pose reads it, CheckSignatures).
+/// Otherwise a view's spectrum is
 /// computed when it is first used (one FFT; thread-safe), so a sequence seen at one distance never
 /// pays for the other shells, and a particle filter only for the views its particles visit; or all
 /// at once by ComputeAll, for memory that no longer grows while tracking. A spectrum keeps only the
@@ -102,14 +103,20 @@ class ViewSpectra {
     return Get(model, view, shell).magnitudes.span();
   }
   /// For a database read with ViewChecks::kOnFirstUse: checks the signatures of model `model` in
-  /// shell `shell` against their checksum (ViewDatabase::CheckBlock), once. The matcher reads a
-  /// view's signature values (ViewDatabase::CheckView) but not the whole block when the spectra
-  /// come from the file; code that reads signatures for more than matching (the 6-DOF pose) calls
-  /// this first. Throws silpose::Error naming the file; nothing for a database checked at open.
+  /// shell `shell` against their checksum (ViewDatabase::CheckBlock) and each view's signature
+  /// values (ViewDatabase::CheckViewSignature), once. When the spectra come from the file the
+  /// matcher reads neither (only the spectra, whose blocks and values it checks); code that reads
+  /// signatures (the 6-DOF pose) calls this first. Throws silpose::Error naming the file; nothing
+  /// for a database checked at open.
   void CheckSignatures(int model, int shell) const {
     if (!database_.views_unchecked) return;
-    std::call_once(signatures_once_[Index(model, shell)],
-                   [&] { database_.CheckBlock(model, shell, ViewBlock::kSignatures); });
+    std::call_once(signatures_once_[Index(model, shell)], [&] {
+      database_.CheckBlock(model, shell, ViewBlock::kSignatures);
+      const size_t first = static_cast<size_t>(shell) * static_cast<size_t>(num_views_);
+      for (size_t r = first; r < first + static_cast<size_t>(num_views_); ++r) {
+        database_.CheckViewSignature(model, r);
+      }
+    });
   }
   /// Makes the spectra of every view of every model and shell not made yet, on `num_threads`
   /// threads (0 = all available cores; util/threads.h). Thread-safe with Get; the spectra are the

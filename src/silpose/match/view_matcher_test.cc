@@ -583,6 +583,32 @@ TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTh
               std::string::npos)
         << error.what();
   }
+  // Impossible signature values behind valid checksums (a crafted file): the matcher, which does
+  // not read them, matches; the check before the pose names the view.
+  ViewDatabase crafted = synthetic.database;
+  crafted.models[1].signatures.mutable_data()[1000 * 9 + 17] =
+      std::numeric_limits<float>::quiet_NaN();
+  const auto crafted_path = TemporaryDatabasePath("crafted_signature");
+  crafted.Write(crafted_path);
+  {
+    const ViewDatabase crafted_read = ViewDatabase::Read(crafted_path);
+    const ViewSpectra crafted_spectra(crafted_read);
+    ViewMatcher crafted_matcher(crafted_spectra);
+    EXPECT_EQ(crafted_matcher.Match(RandomSignature(rng, 1000), every_view).size(), 80u);
+    crafted_spectra.CheckSignatures(0, 0);
+    try {
+      crafted_spectra.CheckSignatures(1, 0);
+      ADD_FAILURE() << "an impossible signature value passed the check before the pose";
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what())
+                    .find(crafted_path.string() +
+                          ": corrupt database: model 'model1' view 9 of shell 0 has an invalid "
+                          "signature value"),
+                std::string::npos)
+          << error.what();
+    }
+  }
+  std::filesystem::remove(crafted_path);
   // Without stored spectra the matcher makes them from the signatures: it checks their block.
   ViewDatabase plain = synthetic.database;
   for (ModelViews& model : plain.models) model.spectra = StoredSpectra{};
