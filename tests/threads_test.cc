@@ -1,11 +1,13 @@
 // What is shared between threads (README, "As a library"): one database read by several
 // trackers at once, one ViewSpectra (whose spectra are made on first use) shared by several
-// trackers, and one ViewSpectra searched by one ViewMatcher per thread. Each must give what it
-// gives alone. These tests are also run under ThreadSanitizer (the 'tsan' preset,
-// scripts/run-sanitizers.sh).
+// trackers, and one ViewSpectra searched by one ViewMatcher per thread; and what runs on several
+// threads inside: building a database. Each must give what it gives alone. These tests are also
+// run under ThreadSanitizer (the 'tsan' preset, scripts/run-sanitizers.sh), where the database
+// build's parallel loop runs on std::thread (util/parallel.h).
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <memory>
 #include <opencv2/core/utility.hpp>
 #include <sstream>
@@ -29,7 +31,7 @@ const ViewDatabase& Database() {
     options.parameters.view_sphere.num_views = 200;
     options.parameters.render.resolution_px = 128;
     options.parameters.distances_in_radii = {3.0, 7.5};
-    options.num_threads = 1;  // std::thread only here: TBB's parallel_for is not run under TSan
+    options.num_threads = 1;
     return new ViewDatabase(
         BuildViewDatabase({kModels / "cow.obj", kModels / "hand.obj"}, options));
   }();
@@ -167,6 +169,30 @@ TEST_F(SharedBetweenThreads, MatchersOnOneSpectraGiveWhatEachGivesAlone) {
   EXPECT_EQ(halves[0].size() + halves[1].size(), alone.size());
   EXPECT_EQ(wholes[0], alone);
   EXPECT_EQ(wholes[1], alone);
+}
+
+TEST_F(SharedBetweenThreads, ADatabaseBuiltOnTwoThreadsIsTheOneBuiltOnOne) {
+  DatabaseBuildOptions options;
+  options.parameters.view_sphere.num_views = 120;
+  options.parameters.render.resolution_px = 128;
+  options.parameters.distances_in_radii = {3.0, 7.5};
+  std::atomic<int> reported{0};
+  options.num_threads = 2;
+  const std::vector<std::filesystem::path> models = {kModels / "cow.obj", kModels / "anchor.obj"};
+  const ViewDatabase two = BuildViewDatabase(models, options);
+  options.num_threads = 1;
+  const ViewDatabase one = BuildViewDatabase(models, options);
+  // Every view rendered, described and stored in its place, the symmetries found beside them:
+  // the same bytes.
+  EXPECT_EQ(two.Serialize(), one.Serialize());
+  ASSERT_EQ(two.models.size(), 2u);
+  EXPECT_FALSE(two.models[0].symmetry.mirrors.empty());  // the cow's mirror plane
+  // The progress callback of one model's views, called from both threads.
+  ModelViews model;
+  DescribeModelViews(
+      LoadMesh(kModels / "cow.obj"), two.sphere, options.parameters, 2,
+      [&](int done) { reported += done; }, &model);
+  EXPECT_EQ(reported.load(), 2 * 120);
 }
 
 }  // namespace

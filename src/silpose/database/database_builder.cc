@@ -1,11 +1,5 @@
 #include "silpose/database/database_builder.h"
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/global_control.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
-
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -15,8 +9,8 @@
 #include "silpose/mesh/mesh_symmetry.h"
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
+#include "silpose/util/parallel.h"
 #include "silpose/util/progress.h"
-#include "silpose/util/threads.h"
 
 namespace silpose {
 
@@ -90,10 +84,9 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   // mesh's centre and radius each time.
   std::vector<PinholeCamera> cameras;
   for (int s = 0; s < num_shells; ++s) cameras.push_back(ViewCamera(parameters.ShellRender(s)));
-  tbb::enumerable_thread_specific<cv::Mat> masks;
-  auto describe = [&](const tbb::blocked_range<int>& range) {
-    cv::Mat& mask = masks.local();
-    for (int index = range.begin(); index != range.end(); ++index) {
+  auto describe = [&](int first, int last) {
+    cv::Mat mask;  // reused by the chunk's views
+    for (int index = first; index != last; ++index) {
       const int shell = index / num_views;
       const int v = index % num_views;
       const double distance =
@@ -117,7 +110,7 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
                   model->MutableSignature(v, shell).begin());
       }
     }
-    if (on_views_done) on_views_done(static_cast<int>(range.size()));
+    if (on_views_done) on_views_done(last - first);
   };
   // The symmetries come from the surface (mesh/mesh_symmetry.h), found beside the renderings.
   const auto find_symmetry = [&] { model->symmetry = DetectSymmetry(mesh); };
@@ -125,16 +118,10 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
     find_symmetry();
     constexpr int kChunk = 16;  // report progress as views are done
     for (int begin = 0; begin < num_records; begin += kChunk) {
-      describe(tbb::blocked_range<int>(begin, std::min(begin + kChunk, num_records)));
+      describe(begin, std::min(begin + kChunk, num_records));
     }
   } else {
-    tbb::task_arena arena(WorkerThreads(num_threads));
-    arena.execute([&] {
-      tbb::task_group group;
-      group.run(find_symmetry);
-      tbb::parallel_for(tbb::blocked_range<int>(0, num_records, 8), describe);
-      group.wait();
-    });
+    ParallelFor(0, num_records, 8, num_threads, describe, find_symmetry);
   }
   if (std::none_of(model->views.begin(), model->views.end(),
                    [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {
