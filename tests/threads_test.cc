@@ -6,8 +6,11 @@
 // build's parallel loop runs on std::thread (util/parallel.h).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <opencv2/core/utility.hpp>
 #include <sstream>
@@ -193,6 +196,30 @@ TEST_F(SharedBetweenThreads, ADatabaseBuiltOnTwoThreadsIsTheOneBuiltOnOne) {
       LoadMesh(kModels / "cow.obj"), two.sphere, options.parameters, 2,
       [&](int done) { reported += done; }, &model);
   EXPECT_EQ(reported.load(), 2 * 120);
+}
+
+TEST_F(SharedBetweenThreads, ASequenceWrittenOnTwoThreadsIsTheOneWrittenOnOne) {
+  const std::filesystem::path base = std::filesystem::temp_directory_path() /
+                                     ("silpose_threads_test_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(base);
+  SequenceWriteOptions options;
+  options.num_threads = 2;
+  WriteSequence(Sequence(), base / "two", options);
+  options.num_threads = 1;
+  WriteSequence(Sequence(), base / "one", options);
+  const auto bytes = [](const std::filesystem::path& path) {
+    std::ifstream file(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(file), {});
+  };
+  EXPECT_EQ(bytes(base / "two" / "groundtruth.csv"), bytes(base / "one" / "groundtruth.csv"));
+  int masks = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(base / "one" / "masks")) {
+    EXPECT_EQ(bytes(base / "two" / "masks" / entry.path().filename()), bytes(entry.path()))
+        << entry.path();
+    ++masks;
+  }
+  EXPECT_EQ(masks, 16);
+  std::filesystem::remove_all(base);
 }
 
 }  // namespace

@@ -357,7 +357,10 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
   const cv::Rect box = cv::boundingRect(contour);
   const cv::Rect roi(box.x - margin, box.y - margin, box.width + 2 * margin,
                      box.height + 2 * margin);
-  cv::Mat filled = cv::Mat::zeros(roi.size(), CV_8UC1);
+  // Constructed with its value (not Mat::zeros, a matrix expression: OpenCV makes the expressions'
+  // shared operator object on first use without synchronisation, which ThreadSanitizer reports
+  // when the database build's threads describe their first views at once).
+  cv::Mat filled(roi.size(), CV_8UC1, cv::Scalar(0));
   cv::drawContours(filled, contours, chosen_index, cv::Scalar(1), cv::FILLED, cv::LINE_8,
                    cv::noArray(), 0, cv::Point(-roi.x, -roi.y));
   // Centre of gravity and area from the pixels themselves (pixel centres at integer coordinates),

@@ -1,8 +1,5 @@
 #include "silpose/synth/synthetic_sequence.h"
 
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -20,8 +17,8 @@
 #include "silpose/render/shaded_renderer.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
+#include "silpose/util/parallel.h"
 #include "silpose/util/progress.h"
-#include "silpose/util/threads.h"
 
 namespace silpose {
 namespace {
@@ -393,9 +390,9 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
   const int batch_size = to_sink ? 32 : std::max(num_frames, 1);
   std::vector<cv::Mat> batch_colour(to_sink ? static_cast<size_t>(batch_size) : 0);
   int batch_begin = 0;
-  auto generate = [&](const tbb::blocked_range<int>& range) {
+  auto generate = [&](int first, int last) {
     SyntheticFrame frame;
-    for (int k = range.begin(); k != range.end(); ++k) {
+    for (int k = first; k != last; ++k) {
       sequence.Generate(k, &frame);
       WriteMask(SequenceMaskPath(folder, k), frame.mask);
       if (write_frames) WriteColourFrame(SequenceFramePath(folder, k), frame.colour);
@@ -408,19 +405,17 @@ SequenceSummary WriteSequence(const SyntheticSequence& sequence,
       border[i] = frame.touches_border ? 1 : 0;
       truths[i] = std::move(frame.truth);
     }
-    progress.Advance(static_cast<int64_t>(range.size()));
+    progress.Advance(last - first);
   };
-  tbb::task_arena arena(WorkerThreads(options.num_threads));
   for (batch_begin = 0; batch_begin < num_frames; batch_begin += batch_size) {
     const int batch_end = std::min(batch_begin + batch_size, num_frames);
     if (options.num_threads == 1) {
       constexpr int kChunk = 8;  // report progress as frames are done
       for (int begin = batch_begin; begin < batch_end; begin += kChunk) {
-        generate(tbb::blocked_range<int>(begin, std::min(begin + kChunk, batch_end)));
+        generate(begin, std::min(begin + kChunk, batch_end));
       }
     } else {
-      arena.execute(
-          [&] { tbb::parallel_for(tbb::blocked_range<int>(batch_begin, batch_end, 4), generate); });
+      ParallelFor(batch_begin, batch_end, 4, options.num_threads, generate);
     }
     if (to_sink) {
       for (int k = batch_begin; k < batch_end; ++k) {
