@@ -15,20 +15,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> Cells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-  return cells;
-}
-
 class CliEvalScaleTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -49,19 +35,19 @@ TEST_F(CliEvalScaleTest, QuickRunWritesOneRowPerDatabaseAndThePlots) {
   const std::vector<std::string> rows = ReadLines(out + "/costs.csv");
   // Objects 2 and 6 at 60 views, views 60 and 120 at 2 objects: (2, 60) measured once.
   ASSERT_EQ(rows.size(), 4u);
-  ASSERT_EQ(Cells(rows[0]).size(), 18u);
-  EXPECT_EQ(Cells(rows[0])[4], "file_mb");
+  ASSERT_EQ(CsvCells(rows[0]).size(), 18u);
+  EXPECT_EQ(CsvCells(rows[0])[4], "file_mb");
   std::vector<double> file_mb;
   for (size_t i = 1; i < rows.size(); ++i) {
-    const std::vector<std::string> cells = Cells(rows[i]);
+    const std::vector<std::string> cells = CsvCells(rows[i]);
     ASSERT_EQ(cells.size(), 18u) << rows[i];
     file_mb.push_back(std::stod(cells[4]));
     EXPECT_GT(std::stod(cells[6]), 0.0) << rows[i];  // brute force ms
     EXPECT_GT(std::stod(cells[7]), 0.0) << rows[i];  // filter ms
   }
   // Rows by objects, then views: (2, 60), (2, 120), (6, 60); the file grows with the views.
-  EXPECT_EQ(Cells(rows[1])[0] + "x" + Cells(rows[1])[1], "2x60");
-  EXPECT_EQ(Cells(rows[3])[0] + "x" + Cells(rows[3])[1], "6x60");
+  EXPECT_EQ(CsvCells(rows[1])[0] + "x" + CsvCells(rows[1])[1], "2x60");
+  EXPECT_EQ(CsvCells(rows[3])[0] + "x" + CsvCells(rows[3])[1], "6x60");
   EXPECT_GT(file_mb[1], 1.5 * file_mb[0]);
   EXPECT_GT(file_mb[2], 2.5 * file_mb[0]);
   for (const char* file : {"costs.svg", "costs.png", "README.txt"}) {

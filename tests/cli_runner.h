@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace silpose {
 
@@ -43,6 +44,23 @@ inline CommandResult Silpose(const std::string& arguments) {
   run.err = text.str();
   std::filesystem::remove(err_path);
   return run;
+}
+
+// A text file's lines.
+inline std::vector<std::string> ReadLines(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(file, line);) lines.push_back(line);
+  return lines;
+}
+
+// The comma-separated cells of a CSV line (an empty last cell after a trailing comma too).
+inline std::vector<std::string> CsvCells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream stream(line);
+  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
 }
 
 inline int Lines(const std::string& text) {

@@ -90,5 +90,10 @@ std::vector<std::filesystem::path> MeshPathsFromModelsOption(const std::vector<s
 std::vector<double> ParseTriple(const std::string& text, const std::string& what);
 /// Human-readable size ("12.3 MB").
 std::string FormatBytes(uintmax_t bytes);
+/// Creates an eval command's output folder (and its parents) if needed and returns it. Throws
+/// silpose::Error naming the folder if it cannot be made or is not a folder.
+std::filesystem::path CreateOutputFolder(const std::string& folder);
+/// This process's command line, its arguments separated by spaces (for an experiment's README).
+std::string CommandLine();
 
 }  // namespace silpose::cli

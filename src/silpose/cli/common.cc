@@ -1,7 +1,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <sstream>
+#include <system_error>
 
 #include "silpose/cli/commands.h"
 #include "silpose/util/error.h"
@@ -104,6 +106,23 @@ std::string FormatBytes(uintmax_t bytes) {
   } else {
     std::snprintf(text, sizeof(text), "%ju bytes", bytes);
   }
+  return text;
+}
+
+std::filesystem::path CreateOutputFolder(const std::string& folder) {
+  std::error_code error;
+  std::filesystem::create_directories(folder, error);
+  if (error || !std::filesystem::is_directory(folder)) {
+    ThrowError(folder, ": cannot create the output folder",
+               error ? ": " + error.message() : std::string());
+  }
+  return folder;
+}
+
+std::string CommandLine() {
+  std::ifstream file("/proc/self/cmdline", std::ios::binary);
+  std::string text, part;
+  while (std::getline(file, part, '\0')) text += (text.empty() ? "" : " ") + part;
   return text;
 }
 

@@ -108,12 +108,7 @@ void RunEvalBop(EvalBopArguments arguments) {
       OpenBopDataset(arguments.dataset, {.split = arguments.split,
                                          .models_folder = arguments.models_folder,
                                          .eval_models_folder = arguments.eval_models_folder});
-  const std::filesystem::path output = arguments.output;
-  std::error_code error;
-  std::filesystem::create_directories(output, error);
-  if (error || !std::filesystem::is_directory(output))
-    ThrowError(output.string(), ": cannot create the output folder",
-               error ? ": " + error.message() : std::string());
+  const std::filesystem::path output = CreateOutputFolder(arguments.output);
 
   std::vector<std::filesystem::path> meshes;
   for (const BopModel& model : dataset.models) meshes.push_back(model.mesh_path);

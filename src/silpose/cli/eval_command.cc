@@ -200,13 +200,7 @@ void RunTrackingEval(const TrackingArguments& arguments) {
   if (paths.empty()) paths = DefaultEvalModels();
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
-  std::error_code error;
-  std::filesystem::create_directories(arguments.output, error);
-  if (error || !std::filesystem::is_directory(arguments.output)) {
-    ThrowError(arguments.output, ": cannot create the output folder",
-               error ? ": " + error.message() : std::string());
-  }
-  const std::filesystem::path folder = arguments.output;
+  const std::filesystem::path folder = CreateOutputFolder(arguments.output);
 
   const ViewDatabase database = EvaluationDatabase(paths, {.database_path = arguments.database,
                                                            .num_views = arguments.views,

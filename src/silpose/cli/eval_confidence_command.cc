@@ -172,13 +172,7 @@ void RunEvalConfidence(const EvalConfidenceArguments& arguments) {
   }
   if (database_paths.empty()) ThrowError("every model is an unknown object: nothing to track");
 
-  std::error_code error;
-  std::filesystem::create_directories(arguments.output, error);
-  if (error || !std::filesystem::is_directory(arguments.output)) {
-    ThrowError(arguments.output, ": cannot create the output folder",
-               error ? ": " + error.message() : std::string());
-  }
-  const std::filesystem::path folder = arguments.output;
+  const std::filesystem::path folder = CreateOutputFolder(arguments.output);
   const ViewDatabase database =
       EvaluationDatabase(database_paths, {.database_path = arguments.database,
                                           .num_views = views,

@@ -73,13 +73,6 @@ std::vector<MaskQuality> ParseQualities(const std::string& text) {
   return {quality};
 }
 
-std::string CommandLine() {
-  std::ifstream file("/proc/self/cmdline", std::ios::binary);
-  std::string text, part;
-  while (std::getline(file, part, '\0')) text += (text.empty() ? "" : " ") + part;
-  return text;
-}
-
 std::string Joined(const std::vector<std::string>& items, const char* separator = ", ") {
   std::string text;
   for (const std::string& item : items) text += (text.empty() ? "" : separator) + item;
@@ -250,13 +243,7 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
   }
   options.models = evaluate;
 
-  std::error_code error;
-  std::filesystem::create_directories(arguments.output, error);
-  if (error || !std::filesystem::is_directory(arguments.output)) {
-    ThrowError(arguments.output, ": cannot create the output folder",
-               error ? ": " + error.message() : std::string());
-  }
-  const std::filesystem::path folder = arguments.output;
+  const std::filesystem::path folder = CreateOutputFolder(arguments.output);
 
   const ViewDatabase database = EvaluationDatabase(paths, {.database_path = arguments.database,
                                                            .num_views = views,

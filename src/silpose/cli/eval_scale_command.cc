@@ -37,13 +37,6 @@ struct EvalScaleArguments {
        frames_given = false, skip_given = false;
 };
 
-std::string CommandLine() {
-  std::ifstream file("/proc/self/cmdline", std::ios::binary);
-  std::string text, part;
-  while (std::getline(file, part, '\0')) text += (text.empty() ? "" : " ") + part;
-  return text;
-}
-
 std::string JoinedInts(const std::vector<int>& values) {
   std::string text;
   for (int n : values) text += (text.empty() ? "" : ",") + std::to_string(n);
@@ -114,13 +107,7 @@ void RunEvalScale(const EvalScaleArguments& arguments) {
   std::string problem;
   if (!options.Check(static_cast<int>(paths.size()), &problem)) ThrowError(problem);
 
-  std::error_code error;
-  std::filesystem::create_directories(arguments.output, error);
-  if (error || !std::filesystem::is_directory(arguments.output)) {
-    ThrowError(arguments.output, ": cannot create the output folder",
-               error ? ": " + error.message() : std::string());
-  }
-  const std::filesystem::path folder = arguments.output;
+  const std::filesystem::path folder = CreateOutputFolder(arguments.output);
   options.work_dir =
       arguments.work_dir.empty() ? folder : std::filesystem::path(arguments.work_dir);
 

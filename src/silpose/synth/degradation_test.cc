@@ -42,6 +42,13 @@ int Different(const cv::Mat& a, const cv::Mat& b) {
   return cv::countNonZero(difference);
 }
 
+// The options are refused with a message containing `word`.
+void ExpectRefused(const DegradationOptions& options, const char* word) {
+  std::string error;
+  EXPECT_FALSE(options.Check(&error)) << word;
+  EXPECT_NE(error.find(word), std::string::npos) << error;
+}
+
 TEST(Degradation, NothingByDefault) {
   const DegradationOptions options;
   EXPECT_FALSE(options.Any());
@@ -454,29 +461,24 @@ TEST(ThresholdEffects, AppliedEffectsAreThoseSwitchedOnExceptOnMissedFrames) {
 }
 
 TEST(ThresholdEffects, InvalidValuesAreRefusedWithTheirName) {
-  const auto refused = [](DegradationOptions options, const char* word) {
-    std::string error;
-    EXPECT_FALSE(options.Check(&error)) << word;
-    EXPECT_NE(error.find(word), std::string::npos) << error;
-  };
   DegradationOptions options;
   options.ragged_px = 30.0;
-  refused(options, "ragged");
+  ExpectRefused(options, "ragged");
   options = DegradationOptions();
   options.holes = -1;
-  refused(options, "holes");
+  ExpectRefused(options, "holes");
   options = DegradationOptions();
   options.fingers = 6;
-  refused(options, "fingers");
+  ExpectRefused(options, "fingers");
   options = DegradationOptions();
   options.shadow = 1.5;
-  refused(options, "shadow");
+  ExpectRefused(options, "shadow");
   options = DegradationOptions();
   options.specks = 5000;
-  refused(options, "specks");
+  ExpectRefused(options, "specks");
   options = DegradationOptions();
   options.stick_width_px = 0.0;
-  refused(options, "stick");
+  ExpectRefused(options, "stick");
 }
 
 }  // namespace
@@ -578,20 +580,15 @@ TEST(PassingOccluder, IsRecordedInTheLabelAndChecked) {
   uint32_t effects = 0;
   ASSERT_TRUE(ParseDegradationLabel("occluders+passing", &kind, &effects));
   EXPECT_EQ(effects, kMaskEffectOccluders | kMaskEffectPassing);
-  const auto refused = [](DegradationOptions o, const char* word) {
-    std::string error;
-    EXPECT_FALSE(o.Check(&error)) << word;
-    EXPECT_NE(error.find(word), std::string::npos) << error;
-  };
   DegradationOptions bad;
   bad.passing_share = 1.5;
-  refused(bad, "passing occluder");
+  ExpectRefused(bad, "passing occluder");
   bad = DegradationOptions();
   bad.pass_frames = 1;
-  refused(bad, "frames per pass");
+  ExpectRefused(bad, "frames per pass");
   bad = DegradationOptions();
   bad.pass_size = 0.0;
-  refused(bad, "passing occluder's size");
+  ExpectRefused(bad, "passing occluder's size");
 }
 
 }  // namespace
