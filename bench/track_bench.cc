@@ -19,6 +19,7 @@
 #include "bench_models.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/io/frame_source.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/track/tracker.h"
@@ -70,7 +71,7 @@ const Fixture& GetFixture() {
     }
     masks->Close();
     colour->Close();
-    cv::imwrite((f->folder / "background.png").string(), sequence.background());
+    WriteImage((f->folder / "background.png").string(), sequence.background());
     // One thread per stream: OpenCV's own threads off (before any benchmark thread starts).
     cv::setNumThreads(1);
     return f;

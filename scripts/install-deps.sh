@@ -23,6 +23,7 @@ packages=(
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
   libopencv-video-dev  # background subtraction (MOG2, KNN)
   libopencv-calib3d406 # chessboard calibration, PnP (runtime; headers below)
+  libpng-dev libjpeg62-turbo-dev  # PNG and JPEG read and written directly (libpng, IJG/BSD-3)
   libassimp-dev        # mesh import: OBJ, PLY, STL, OFF, glTF (BSD-3)
   libeigen3-dev        # small linear algebra (MPL-2.0)
   libtbb-dev           # multi-threaded database building (Apache-2.0)

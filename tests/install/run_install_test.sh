@@ -59,6 +59,18 @@ cat "$work/match.out"
 [[ $(wc -l < "$work/match.out") -eq 5 ]] || fail "match_example: expected 5 candidates"
 head -1 "$work/match.out" | grep -q '^cow view ' || fail "match_example: best candidate is not cow"
 
+echo "== formats other than PNG and JPEG: OpenCV's codecs through the installed plugin"
+plugin=$(find "$prefix" -name libsilpose_opencv_codecs.so | head -1)
+[[ -n $plugin ]] || fail "libsilpose_opencv_codecs.so not installed"
+"$silpose" render "$models/cow.obj" --resolution 256 -o "$data/cow.bmp" > "$work/render.log" ||
+  fail "render to BMP"
+LD_DEBUG=files LD_DEBUG_OUTPUT="$work/loader" "$silpose" match -d "$data/parts.db" "$data/cow.bmp" \
+  > "$work/bmp.out" || fail "match of a BMP mask"
+grep -q "calling init: $plugin" "$work"/loader.* ||
+  fail "the installed silpose did not load the installed plugin $plugin"
+grep -q " cow " "$work/bmp.out" || fail "match of the BMP mask did not find the cow"
+echo "BMP read through $plugin"
+
 echo "== version macros and deleted overloads"
 "$work/build/api_check" | tee "$work/api.out"
 grep -q "^silpose [0-9]*\.[0-9]*\.[0-9]* (" "$work/api.out" || fail "api_check output"

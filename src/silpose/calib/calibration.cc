@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -212,7 +213,7 @@ CalibrationResult CalibrateCamera(const std::vector<std::filesystem::path>& imag
     if (!std::filesystem::is_regular_file(path, error)) ThrowError(name, ": no such image file");
     cv::Mat image;
     try {
-      image = cv::imread(name, cv::IMREAD_GRAYSCALE);
+      image = ReadImage(name, cv::IMREAD_GRAYSCALE);
     } catch (const cv::Exception& exception) {
       ThrowError(name, ": cannot read image (", exception.msg, ")");
     }

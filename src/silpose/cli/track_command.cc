@@ -13,6 +13,7 @@
 #include "silpose/cli/commands.h"
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/io/mask_file.h"
 #include "silpose/io/video_writer.h"
@@ -500,7 +501,7 @@ void RunTrackJob(const TrackJob& arguments) {
       waiting.pop_front();
     }
     cv::Mat image = info.image;
-    if (!info.jpeg.empty()) image = cv::imdecode(info.jpeg, cv::IMREAD_COLOR);
+    if (!info.jpeg.empty()) image = DecodeImage(info.jpeg, cv::IMREAD_COLOR);
     tracked.result.frame_name = info.name;
     tracked.result.image_id = info.image_id;
     const int index = info.index;
@@ -556,7 +557,7 @@ void RunTrackJob(const TrackJob& arguments) {
         if (!smoother) {
           info.image = frame;
         } else if (arguments.smooth) {
-          if (!cv::imencode(".jpg", frame, info.jpeg, {cv::IMWRITE_JPEG_QUALITY, 90}))
+          if (!EncodeImage(".jpg", frame, &info.jpeg, {cv::IMWRITE_JPEG_QUALITY, 90}))
             ThrowError(info.name, ": could not keep the frame for the overlay");
         } else {
           info.image = frame.clone();

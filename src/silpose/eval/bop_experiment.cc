@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
@@ -74,7 +75,7 @@ cv::Mat ReadImage(const std::filesystem::path& path, const char* what) {
     ThrowError(path.string(), ": ", what, " not found");
   cv::Mat image;
   try {
-    image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    image = silpose::ReadImage(path, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": cannot read ", what, " (", exception.err, ")");
   }

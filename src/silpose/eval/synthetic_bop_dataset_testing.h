@@ -33,6 +33,7 @@
 #include "silpose/eval/bop_dataset.h"
 #include "silpose/geometry/pinhole_camera.h"
 #include "silpose/geometry/rigid3.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/render/shaded_renderer.h"
 #include "silpose/util/error.h"
@@ -138,7 +139,7 @@ inline void WriteJson(const std::filesystem::path& path, const nlohmann::json& j
 }
 
 inline void WritePng(const std::filesystem::path& path, const cv::Mat& image) {
-  if (!cv::imwrite(path.string(), image)) ThrowError(path.string(), ": cannot write");
+  if (!WriteImage(path.string(), image)) ThrowError(path.string(), ": cannot write");
 }
 
 inline std::string Id6(int id) {

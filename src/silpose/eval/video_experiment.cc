@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "silpose/io/frame_source.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/track/track_report.h"
@@ -118,7 +119,7 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
     }
     bool written = false;
     try {
-      written = cv::imwrite(background_path.string(), sequence.background());
+      written = WriteImage(background_path.string(), sequence.background());
     } catch (const cv::Exception& exception) {
       ThrowError(background_path.string(), ": cannot write (", exception.err, ")");
     }

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/util/error.h"
 
@@ -597,7 +598,7 @@ bool AviReader::ReadNext(cv::Mat* frame) {
     const int flags = codec == Codec::kJpeg && color() == FrameColor::kGray ? cv::IMREAD_GRAYSCALE
                                                                             : cv::IMREAD_UNCHANGED;
     try {
-      decoded = cv::imdecode(payload_, flags);
+      decoded = DecodeImage(payload_, flags);
     } catch (const cv::Exception& exception) {
       Fail("cannot decode the frame (" + exception.err + ")");
     }
@@ -695,11 +696,11 @@ void AviWriter::Write(const cv::Mat& frame) {
   bool encoded = false;
   try {
     if (options_.avi_codec == AviCodec::kPng) {
-      encoded = cv::imencode(".png", frame, encoded_,
-                             {cv::IMWRITE_PNG_COMPRESSION, options_.png_compression});
+      encoded = EncodeImage(".png", frame, &encoded_,
+                            {cv::IMWRITE_PNG_COMPRESSION, options_.png_compression});
     } else {
       encoded =
-          cv::imencode(".jpg", frame, encoded_, {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality});
+          EncodeImage(".jpg", frame, &encoded_, {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality});
     }
   } catch (const cv::Exception& exception) {
     Fail(label + "cannot encode (" + exception.err + ")");

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "silpose/io/avi_file.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/io/mask_file.h"
 #include "silpose/io/v4l2_camera.h"
@@ -53,7 +54,7 @@ cv::Mat DecodeImageFile(const std::filesystem::path& path, FrameColor color, int
   const int flags = color == FrameColor::kGray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_UNCHANGED;
   CheckImageFileSize(path);
   try {
-    image = cv::imread(path.string(), flags);
+    image = ReadImage(path.string(), flags);
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": frame ", frame, ": cannot decode image (", exception.err, ")");
   }

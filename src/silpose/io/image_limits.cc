@@ -17,16 +17,6 @@ uint32_t Le32(const unsigned char* p) {
   return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
 }
 
-// OpenCV's decoders check OPENCV_IO_MAX_IMAGE_PIXELS the first time they run: set it to silpose's
-// bound unless the user set it.
-void LimitOpenCvDecoders() {
-  static const bool once = [] {
-    ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(kMaxImagePixels).c_str(), 0);
-    return true;
-  }();
-  (void)once;
-}
-
 // Width and height from a JPEG's first SOF marker; false if not found in the first bytes.
 bool JpegSize(std::ifstream& file, int64_t* width, int64_t* height) {
   std::vector<unsigned char> data(1 << 20);
@@ -87,6 +77,14 @@ bool ImageSizeAllowed(int64_t width, int64_t height, std::string* error) {
     *error = text.str();
   }
   return false;
+}
+
+void LimitOpenCvDecoders() {
+  static const bool once = [] {
+    ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(kMaxImagePixels).c_str(), 0);
+    return true;
+  }();
+  (void)once;
 }
 
 void CheckImageSize(const std::string& name, int64_t width, int64_t height) {

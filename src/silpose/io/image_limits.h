@@ -25,4 +25,8 @@ void CheckImageSize(const std::string& name, int64_t width, int64_t height);
 /// Also makes OpenCV's decoders refuse images beyond kMaxImagePixels.
 void CheckImageFileSize(const std::filesystem::path& path);
 
+/// OpenCV's decoders read OPENCV_IO_MAX_IMAGE_PIXELS the first time they run: sets it to
+/// kMaxImagePixels unless the user set it.
+void LimitOpenCvDecoders();
+
 }  // namespace silpose

@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/util/error.h"
 
@@ -65,7 +66,7 @@ cv::Mat ReadMask(const std::filesystem::path& path) {
   CheckImageFileSize(path);
   cv::Mat image;
   try {
-    image = cv::imread(name, cv::IMREAD_UNCHANGED);
+    image = ReadImage(name, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& exception) {
     ThrowError(name, ": cannot decode image (", exception.err, ")");
   }
@@ -77,7 +78,7 @@ cv::Mat ReadMask(const std::filesystem::path& path) {
 void WriteMask(const std::filesystem::path& path, const cv::Mat& mask) {
   bool written = false;
   try {
-    written = cv::imwrite(path.string(), mask);
+    written = WriteImage(path.string(), mask);
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": cannot write image (", exception.err, ")");
   }

@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -208,9 +209,14 @@ bool V4l2CameraSource::ReadNext(cv::Mat* frame) {
   cv::Mat decoded;
   bool corrupt = (buffer.flags & V4L2_BUF_FLAG_ERROR) != 0 || buffer.bytesused == 0;
   if (!corrupt && pixel_format_ == V4L2_PIX_FMT_MJPEG) {
-    const cv::Mat bytes(1, static_cast<int>(buffer.bytesused), CV_8UC1, mapped.start);
-    decoded =
-        cv::imdecode(bytes, color() == FrameColor::kGray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    const std::span<const uint8_t> bytes(static_cast<const uint8_t*>(mapped.start),
+                                         buffer.bytesused);
+    try {
+      decoded = DecodeImage(bytes,
+                            color() == FrameColor::kGray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    } catch (const cv::Exception&) {
+      decoded.release();  // a damaged frame: counted below like an empty one
+    }
     corrupt = decoded.empty() || decoded.size() != size_;
   } else if (!corrupt) {
     const size_t needed = bytes_per_line_ * static_cast<size_t>(size_.height);

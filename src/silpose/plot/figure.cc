@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -840,7 +841,7 @@ cv::Mat Figure::ToImage() const {
 void Figure::WritePng(const std::filesystem::path& path) const {
   const cv::Mat image = ToImage();
   std::vector<uchar> bytes;
-  if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 6})) {
+  if (!EncodeImage(".png", image, &bytes, {cv::IMWRITE_PNG_COMPRESSION, 6})) {
     ThrowError(path.string(), ": cannot encode the figure as PNG");
   }
   std::ofstream file(path, std::ios::binary);

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <utility>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/shape/polar_signature.h"
 #include "silpose/util/error.h"
 
@@ -160,7 +161,7 @@ class BackgroundModel final : public ForegroundModel {
       if (!std::filesystem::is_regular_file(path, error)) {
         ThrowError(options.background_image_path, ": background image not found");
       }
-      background_image_ = cv::imread(options.background_image_path, cv::IMREAD_UNCHANGED);
+      background_image_ = ReadImage(options.background_image_path, cv::IMREAD_UNCHANGED);
       if (background_image_.empty()) {
         ThrowError(options.background_image_path,
                    ": not an image OpenCV can read (background_image_path)");

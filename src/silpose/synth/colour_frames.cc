@@ -9,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/synth/synth_random.h"
 #include "silpose/util/error.h"
 
@@ -185,7 +186,7 @@ cv::Mat ReadBackgroundImage(const std::filesystem::path& path) {
   if (!std::filesystem::is_regular_file(path)) {
     ThrowError(path.string(), ": background image not found");
   }
-  cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+  cv::Mat image = ReadImage(path.string(), cv::IMREAD_COLOR);
   if (image.empty()) {
     ThrowError(path.string(),
                ": cannot decode the background image (not an image format OpenCV "

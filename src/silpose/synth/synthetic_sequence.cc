@@ -11,6 +11,7 @@
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/io/camera_file.h"
+#include "silpose/io/image_codec.h"
 #include "silpose/io/mask_file.h"
 #include "silpose/pose/lens_distortion.h"
 #include "silpose/pose/pose_from_silhouette.h"
@@ -89,7 +90,7 @@ void PrepareFolder(const std::filesystem::path& folder, bool overwrite, bool col
 void WriteColourFrame(const std::filesystem::path& path, const cv::Mat& image) {
   bool written = false;
   try {
-    written = cv::imwrite(path.string(), image);
+    written = WriteImage(path.string(), image);
   } catch (const cv::Exception& exception) {
     ThrowError(path.string(), ": cannot write the frame: ", exception.what());
   }

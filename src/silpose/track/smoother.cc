@@ -7,6 +7,7 @@
 #include <optional>
 #include <utility>
 
+#include "silpose/io/image_codec.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -101,7 +102,7 @@ TrackSmoother::Held TrackSmoother::Hold(TrackedFrame tracked) {
     held.box = cv::boundingRect(mask);
     if (held.box.area() > 0) {
       if (lag_ == kOffline) {
-        if (!cv::imencode(".png", mask(held.box), held.png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+        if (!EncodeImage(".png", mask(held.box), &held.png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
           ThrowError("frame ", tracked.result.frame, ": could not compress its mask");
       } else {
         held.crop = mask(held.box).clone();
@@ -128,7 +129,7 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
     if (!held.crop.empty()) {
       held.crop.copyTo(mask(held.box));
     } else if (!held.png.empty()) {
-      const cv::Mat crop = cv::imdecode(held.png, cv::IMREAD_UNCHANGED);
+      const cv::Mat crop = DecodeImage(held.png, cv::IMREAD_UNCHANGED);
       if (crop.size() != held.box.size() || crop.type() != CV_8UC1)
         ThrowError("frame ", tracked.result.frame, ": could not restore its mask");
       crop.copyTo(mask(held.box));
