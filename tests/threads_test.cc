@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/eval/tracking_experiment.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/track/tracker.h"
@@ -39,6 +40,12 @@ const ViewDatabase& Database() {
         BuildViewDatabase({kModels / "cow.obj", kModels / "hand.obj"}, options));
   }();
   return *database;
+}
+
+const std::vector<TriangleMesh>& Meshes() {
+  static const auto* meshes =
+      new std::vector<TriangleMesh>{LoadMesh(kModels / "cow.obj"), LoadMesh(kModels / "hand.obj")};
+  return *meshes;
 }
 
 const SyntheticSequence& Sequence() {
@@ -220,6 +227,40 @@ TEST_F(SharedBetweenThreads, ASequenceWrittenOnTwoThreadsIsTheOneWrittenOnOne) {
   }
   EXPECT_EQ(masks, 16);
   std::filesystem::remove_all(base);
+}
+
+TEST_F(SharedBetweenThreads, TheTrackingExperimentOnTwoThreadsGivesWhatItGivesOnOne) {
+  // Its three parallel loops: rendering the flight, the filter runs, the brute-force frames (with
+  // matchers handed from chunk to chunk).
+  TrackingExperimentOptions options;
+  options.flown_models = {"hand"};
+  options.frames = 24;
+  options.particle_counts = {20, 40};
+  options.repeats = 2;
+  std::atomic<int> reported{0};
+  options.num_threads = 2;
+  const TrackingExperimentResult two =
+      RunTrackingExperiment(Database(), Meshes(), options, [&](int done) { reported += done; });
+  options.num_threads = 1;
+  const TrackingExperimentResult one = RunTrackingExperiment(Database(), Meshes(), options);
+  EXPECT_EQ(reported.load(), TrackingRunCount(options, 1));
+  ASSERT_EQ(two.runs.size(), 5u);  // 2 particle counts x 2 seeds, and brute force
+  ASSERT_EQ(two.runs.size(), one.runs.size());
+  int measured = 0;
+  for (size_t r = 0; r < one.runs.size(); ++r) {
+    ASSERT_EQ(two.runs[r].frames.size(), 24u);
+    ASSERT_EQ(two.runs[r].frames.size(), one.runs[r].frames.size());
+    for (size_t k = 0; k < one.runs[r].frames.size(); ++k) {
+      const TrackingFrameResult& a = two.runs[r].frames[k];
+      const TrackingFrameResult& b = one.runs[r].frames[k];
+      EXPECT_EQ(a.object, b.object) << r << " " << k;
+      EXPECT_EQ(a.view, b.view) << r << " " << k;
+      EXPECT_EQ(a.score, b.score) << r << " " << k;
+      EXPECT_EQ(a.pose_error, b.pose_error) << r << " " << k;
+      measured += a.object == 1;  // the hand
+    }
+  }
+  EXPECT_GT(measured, 5 * 24 / 2);
 }
 
 }  // namespace

@@ -1,8 +1,5 @@
 #include "silpose/eval/handheld_experiment.h"
 
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +15,7 @@
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/track/smoother.h"
 #include "silpose/util/error.h"
+#include "silpose/util/parallel.h"
 #include "silpose/util/threads.h"
 
 namespace silpose {
@@ -567,9 +565,9 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
   if (num_threads == 1) {
     for (size_t t = 0; t < tasks.size(); ++t) run_task(t);
   } else {
-    tbb::task_arena arena(num_threads);
-    arena.execute(
-        [&] { tbb::parallel_for(size_t{0}, tasks.size(), run_task, tbb::simple_partitioner()); });
+    ParallelFor(0, static_cast<int>(tasks.size()), 1, num_threads, [&](int first, int last) {
+      for (int t = first; t < last; ++t) run_task(static_cast<size_t>(t));
+    });
   }
 
   HandheldExperimentResult result;

@@ -1,21 +1,19 @@
 #include "silpose/eval/tracking_experiment.h"
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <set>
 
 #include "silpose/match/view_matcher.h"
 #include "silpose/shape/polar_signature.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
+#include "silpose/util/parallel.h"
 #include "silpose/util/threads.h"
 
 namespace silpose {
@@ -50,13 +48,12 @@ Flight RenderFlight(const TriangleMesh& mesh, int model, const ObjectSymmetry& s
   for (const TrajectoryFrame& frame : sequence.trajectory()) {
     flight.true_view_dirs.push_back(frame.view_dir_in_object);
   }
-  tbb::task_arena arena(num_threads);
-  arena.execute([&] {
-    tbb::parallel_for(0, options.frames, [&](int k) {
+  ParallelFor(0, options.frames, 1, num_threads, [&](int first, int last) {
+    for (int k = first; k < last; ++k) {
       SyntheticFrame frame;
       sequence.Generate(k, &frame);
       flight.masks[static_cast<size_t>(k)] = frame.mask;
-    });
+    }
   });
   return flight;
 }
@@ -306,8 +303,9 @@ TrackingExperimentResult RunTrackingExperiment(const ViewDatabase& database,
   std::vector<int> counts = options.particle_counts;
   std::sort(counts.begin(), counts.end());
   std::vector<TrackingRun> filter_runs, brute_runs;
-  tbb::task_arena arena(num_threads);
-  tbb::enumerable_thread_specific<std::unique_ptr<ViewMatcher>> matchers;
+  // Brute-force matchers, one per chunk of frames in flight, reused by the chunks after it.
+  std::mutex matchers_mutex;
+  std::vector<std::unique_ptr<ViewMatcher>> matchers;
   for (int model : flown) {
     const Flight flight =
         RenderFlight(meshes[static_cast<size_t>(model)], model,
@@ -331,8 +329,8 @@ TrackingExperimentResult RunTrackingExperiment(const ViewDatabase& database,
       // In the calling thread: nothing else runs beside it, so the times are single-core times.
       for (size_t i = 0; i < runs.size(); ++i) run_filter(i);
     } else {
-      arena.execute([&] {
-        tbb::parallel_for(size_t{0}, runs.size(), run_filter, tbb::simple_partitioner());
+      ParallelFor(0, static_cast<int>(runs.size()), 1, num_threads, [&](int first, int last) {
+        for (int i = first; i < last; ++i) run_filter(static_cast<size_t>(i));
       });
     }
     for (TrackingRun& run : runs) filter_runs.push_back(std::move(run));
@@ -342,15 +340,28 @@ TrackingExperimentResult RunTrackingExperiment(const ViewDatabase& database,
       run.model = model;
       run.model_name = database.models[static_cast<size_t>(model)].name;
       run.frames.resize(flight.masks.size());
-      auto match_frame = [&](size_t k) {
-        auto& matcher = matchers.local();
+      auto match_frames = [&](int first, int last) {
+        std::unique_ptr<ViewMatcher> matcher;
+        {
+          const std::lock_guard<std::mutex> lock(matchers_mutex);
+          if (!matchers.empty()) {
+            matcher = std::move(matchers.back());
+            matchers.pop_back();
+          }
+        }
         if (!matcher) matcher = std::make_unique<ViewMatcher>(spectra);
-        RunBruteForceFrame(database, *matcher, flight, k, &run.frames[k]);
+        for (int k = first; k < last; ++k) {
+          RunBruteForceFrame(database, *matcher, flight, static_cast<size_t>(k),
+                             &run.frames[static_cast<size_t>(k)]);
+        }
+        const std::lock_guard<std::mutex> lock(matchers_mutex);
+        matchers.push_back(std::move(matcher));
       };
+      const int frames = static_cast<int>(flight.masks.size());
       if (num_threads == 1) {
-        for (size_t k = 0; k < flight.masks.size(); ++k) match_frame(k);
+        match_frames(0, frames);
       } else {
-        arena.execute([&] { tbb::parallel_for(size_t{0}, flight.masks.size(), match_frame); });
+        ParallelFor(0, frames, 4, num_threads, match_frames);
       }
       brute_runs.push_back(std::move(run));
       if (on_progress) on_progress(1);
