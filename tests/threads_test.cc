@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/eval/self_match.h"
 #include "silpose/eval/tracking_experiment.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/synth/synthetic_sequence.h"
@@ -261,6 +262,30 @@ TEST_F(SharedBetweenThreads, TheTrackingExperimentOnTwoThreadsGivesWhatItGivesOn
     }
   }
   EXPECT_GT(measured, 5 * 24 / 2);
+}
+
+TEST_F(SharedBetweenThreads, TheSelfMatchOnTwoThreadsGivesWhatItGivesOnOne) {
+  SelfMatchOptions options;
+  options.view_stride = 5;  // 40 of each model's 200 views, at two scales
+  options.num_threads = 2;
+  const std::vector<SelfMatchModelResult> two = RunSelfMatch(Database(), Meshes(), options);
+  options.num_threads = 1;
+  const std::vector<SelfMatchModelResult> one = RunSelfMatch(Database(), Meshes(), options);
+  ASSERT_EQ(two.size(), 2u);
+  ASSERT_EQ(one.size(), 2u);
+  for (size_t m = 0; m < 2; ++m) {
+    EXPECT_EQ(two[m].queries, 80);
+    EXPECT_EQ(two[m].queries, one[m].queries);
+    EXPECT_EQ(two[m].right_model, one[m].right_model);
+    EXPECT_EQ(two[m].own_view, one[m].own_view);
+    EXPECT_EQ(two[m].passed, one[m].passed);
+    EXPECT_GT(two[m].right_model, 60);
+    ASSERT_EQ(two[m].failures.size(), one[m].failures.size());
+    for (size_t f = 0; f < one[m].failures.size(); ++f) {
+      EXPECT_EQ(two[m].failures[f].view, one[m].failures[f].view);
+      EXPECT_EQ(two[m].failures[f].found_view, one[m].failures[f].found_view);
+    }
+  }
 }
 
 }  // namespace

@@ -1,9 +1,5 @@
 #include "silpose/eval/self_match.h"
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -13,6 +9,7 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/util/error.h"
+#include "silpose/util/parallel.h"
 #include "silpose/util/threads.h"
 
 namespace silpose {
@@ -70,7 +67,8 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
     ViewMatcher matcher;
     cv::Mat mask;
   };
-  tbb::enumerable_thread_specific<std::unique_ptr<Worker>> workers;
+  // One worker (matcher and mask buffer) per chunk of views in flight, reused by later chunks.
+  std::vector<std::unique_ptr<Worker>> workers;
   std::vector<SelfMatchModelResult> results(meshes.size());
   std::mutex results_mutex;
 
@@ -88,12 +86,19 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
           std::max(32, static_cast<int>(std::lround(render.resolution_px * scale)));
       cameras.push_back(ViewCamera(render));
     }
-    auto run_views = [&](const tbb::blocked_range<int>& range) {
-      auto& worker = workers.local();
+    auto run_views = [&](int first, int last) {
+      std::unique_ptr<Worker> worker;
+      {
+        std::lock_guard lock(results_mutex);
+        if (!workers.empty()) {
+          worker = std::move(workers.back());
+          workers.pop_back();
+        }
+      }
       if (!worker) worker = std::make_unique<Worker>(spectra);
       SelfMatchModelResult local;
       int done = 0;
-      for (int v = range.begin(); v != range.end(); ++v) {
+      for (int v = first; v != last; ++v) {
         if (v % options.view_stride != 0) continue;
         ++done;
         const Eigen::Vector3d& direction = database.sphere.directions[static_cast<size_t>(v)];
@@ -160,10 +165,10 @@ std::vector<SelfMatchModelResult> RunSelfMatch(const ViewDatabase& database,
       }
       std::lock_guard lock(results_mutex);
       result.Add(local);
+      workers.push_back(std::move(worker));
       if (on_progress) on_progress(done);
     };
-    tbb::task_arena arena(WorkerThreads(options.num_threads));
-    arena.execute([&] { tbb::parallel_for(tbb::blocked_range<int>(0, num_views, 16), run_views); });
+    ParallelFor(0, num_views, 16, WorkerThreads(options.num_threads), run_views);
     std::sort(result.failures.begin(), result.failures.end(),
               [](const SelfMatchFailure& a, const SelfMatchFailure& b) {
                 return a.view != b.view ? a.view < b.view : a.scale < b.scale;
