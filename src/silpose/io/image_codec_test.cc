@@ -51,15 +51,16 @@ int SamplesPerPixel(int colour_type) {
 }
 
 // A PNG written here from the format's definition (not by libpng): random pixels, unfiltered
-// rows, a palette of 2^depth random colours for colour type 3, optionally a transparency chunk.
+// rows, a palette of 2^depth random colours for colour type 3, optionally a transparency chunk,
+// optionally interlaced (Adam7: seven passes over sub-images, each its own rows).
 Bytes MakePng(int width, int height, int depth, int colour_type, bool transparency,
-              std::mt19937* random) {
+              std::mt19937* random, bool interlaced = false) {
   Bytes png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   Bytes header;
   PutBe32(&header, static_cast<uint32_t>(width));
   PutBe32(&header, static_cast<uint32_t>(height));
-  header.insert(header.end(),
-                {static_cast<uint8_t>(depth), static_cast<uint8_t>(colour_type), 0, 0, 0});
+  header.insert(header.end(), {static_cast<uint8_t>(depth), static_cast<uint8_t>(colour_type), 0, 0,
+                               static_cast<uint8_t>(interlaced ? 1 : 0)});
   PutChunk(&png, "IHDR", header);
   std::uniform_int_distribution<int> byte(0, 255);
   if (colour_type == 3) {
@@ -78,15 +79,28 @@ Bytes MakePng(int width, int height, int depth, int colour_type, bool transparen
     for (int i = 0; i < (colour_type == 0 ? 1 : 3); ++i) key.insert(key.end(), {0, level});
     PutChunk(&png, "tRNS", key);
   }
-  const size_t row_bytes =
-      (static_cast<size_t>(width) * SamplesPerPixel(colour_type) * static_cast<size_t>(depth) + 7) /
-      8;
+  struct Pass {
+    int x0, y0, dx, dy;
+  };
+  const std::vector<Pass> passes =
+      interlaced ? std::vector<Pass>{{0, 0, 8, 8}, {4, 0, 8, 8}, {0, 4, 4, 8}, {2, 0, 4, 4},
+                                     {0, 2, 2, 4}, {1, 0, 2, 2}, {0, 1, 1, 2}}
+                 : std::vector<Pass>{{0, 0, 1, 1}};
   Bytes raw;
-  for (int y = 0; y < height; ++y) {
-    raw.push_back(0);  // filter: none
-    for (size_t i = 0; i < row_bytes; ++i) {
-      // Some pixels take the transparent key's value so that the key matters.
-      raw.push_back(static_cast<uint8_t>(i % 5 == 0 ? 7 : byte(*random)));
+  for (const Pass& pass : passes) {
+    const int pass_width = width > pass.x0 ? (width - pass.x0 + pass.dx - 1) / pass.dx : 0;
+    const int pass_height = height > pass.y0 ? (height - pass.y0 + pass.dy - 1) / pass.dy : 0;
+    if (pass_width == 0 || pass_height == 0) continue;  // an empty pass has no rows
+    const size_t row_bytes = (static_cast<size_t>(pass_width) * SamplesPerPixel(colour_type) *
+                                  static_cast<size_t>(depth) +
+                              7) /
+                             8;
+    for (int y = 0; y < pass_height; ++y) {
+      raw.push_back(0);  // filter: none
+      for (size_t i = 0; i < row_bytes; ++i) {
+        // Some pixels take the transparent key's value so that the key matters.
+        raw.push_back(static_cast<uint8_t>(i % 5 == 0 ? 7 : byte(*random)));
+      }
     }
   }
   uLongf size = compressBound(static_cast<uLong>(raw.size()));
@@ -107,7 +121,7 @@ void ExpectSameImage(const cv::Mat& ours, const cv::Mat& opencv, const std::stri
 
 constexpr int kModes[] = {cv::IMREAD_UNCHANGED, cv::IMREAD_GRAYSCALE, cv::IMREAD_COLOR};
 
-TEST(ImageCodec, EveryPngColourTypeAndDepthDecodesAsOpenCvDecodesIt) {
+TEST(ImageCodec, EveryPngColourTypeDepthAndInterlaceDecodesAsOpenCvDecodesIt) {
   struct Format {
     int colour_type;
     std::vector<int> depths;
@@ -120,19 +134,22 @@ TEST(ImageCodec, EveryPngColourTypeAndDepthDecodesAsOpenCvDecodesIt) {
     for (const int depth : format.depths) {
       for (const bool transparency : {false, true}) {
         if (transparency && (format.colour_type == 4 || format.colour_type == 6)) continue;
-        const Bytes png = MakePng(13, 7, depth, format.colour_type, transparency, &random);
-        for (const int mode : kModes) {
-          const std::string what = "colour type " + std::to_string(format.colour_type) +
-                                   ", depth " + std::to_string(depth) +
-                                   (transparency ? ", tRNS" : "") + ", mode " +
-                                   std::to_string(mode);
-          ExpectSameImage(DecodeImage(png, mode), cv::imdecode(png, mode), what);
-          ++checked;
+        for (const bool interlaced : {false, true}) {
+          const Bytes png =
+              MakePng(13, 7, depth, format.colour_type, transparency, &random, interlaced);
+          for (const int mode : kModes) {
+            const std::string what =
+                "colour type " + std::to_string(format.colour_type) + ", depth " +
+                std::to_string(depth) + (transparency ? ", tRNS" : "") +
+                (interlaced ? ", interlaced" : "") + ", mode " + std::to_string(mode);
+            ExpectSameImage(DecodeImage(png, mode), cv::imdecode(png, mode), what);
+            ++checked;
+          }
         }
       }
     }
   }
-  EXPECT_EQ(checked, 3 * (2 * (5 + 2 + 4 + 2 + 2) - 4));
+  EXPECT_EQ(checked, 2 * 3 * (2 * (5 + 2 + 4 + 2 + 2) - 4));
 }
 
 TEST(ImageCodec, PngWrittenIsReadBackUnchangedInEveryDepthAndChannelCount) {
@@ -174,11 +191,15 @@ TEST(ImageCodec, JpegDecodesAsOpenCvDecodesItAndEncodesCloseToTheImage) {
   cv::Mat grey;
   cv::cvtColor(colour, grey, cv::COLOR_BGR2GRAY);
   for (const cv::Mat& image : {colour, grey}) {
-    Bytes opencv_bytes;
-    ASSERT_TRUE(cv::imencode(".jpg", image, opencv_bytes));
-    for (const int mode : kModes) {
-      ExpectSameImage(DecodeImage(opencv_bytes, mode), cv::imdecode(opencv_bytes, mode),
-                      std::to_string(image.channels()) + " channels, mode " + std::to_string(mode));
+    for (const int progressive : {0, 1}) {
+      Bytes opencv_bytes;
+      ASSERT_TRUE(
+          cv::imencode(".jpg", image, opencv_bytes, {cv::IMWRITE_JPEG_PROGRESSIVE, progressive}));
+      for (const int mode : kModes) {
+        ExpectSameImage(DecodeImage(opencv_bytes, mode), cv::imdecode(opencv_bytes, mode),
+                        std::to_string(image.channels()) + " channels, progressive " +
+                            std::to_string(progressive) + ", mode " + std::to_string(mode));
+      }
     }
     Bytes ours;
     ASSERT_TRUE(EncodeImage(".jpeg", image, &ours, {cv::IMWRITE_JPEG_QUALITY, 90}));
