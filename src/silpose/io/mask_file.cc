@@ -34,6 +34,11 @@ cv::Mat DecodeMask(const cv::Mat& image, int threshold, const std::string& name)
   if (channels < 1 || channels > 4) {
     ThrowError(name, ": mask images must have 1 to 4 channels, got ", channels);
   }
+  if (channels == 1) {  // the usual mask: no copy of its one plane
+    cv::Mat mask;
+    cv::compare(image, cut, mask, cv::CMP_GT);
+    return mask;
+  }
   std::vector<cv::Mat> planes;
   cv::split(image, planes);
   const bool has_alpha = channels == 2 || channels == 4;

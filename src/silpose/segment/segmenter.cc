@@ -110,7 +110,15 @@ class MaskModel final : public ForegroundModel {
       cv::reduce(rows, single, 1, cv::REDUCE_MAX);
       single = single.reshape(1, colour.rows);
     }
-    cv::threshold(single, *foreground, threshold_, 255, cv::THRESH_BINARY);
+    // Pixels above the threshold lie inside the box of the non-zero ones: only that box is
+    // thresholded (a mask frame is mostly background).
+    foreground->create(single.size(), CV_8UC1);
+    foreground->setTo(0);
+    const cv::Rect box = NonZeroBoundingBox(single);
+    if (!box.empty()) {
+      cv::Mat inside = (*foreground)(box);
+      cv::threshold(single(box), inside, threshold_, 255, cv::THRESH_BINARY);
+    }
     return SegmentationStatus::kOk;
   }
 
