@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/wait.h>
 
 #include <filesystem>
 #include <fstream>
@@ -102,6 +103,44 @@ TEST_F(CliImageFormatsTest, WithoutThePluginOtherFormatsAreRefusedNamingTheFile)
   EXPECT_NE(bmp.err.find("/nonexistent/libsilpose_opencv_codecs.so"), std::string::npos) << bmp.err;
   EXPECT_NE(bmp.err.find("convert the image to PNG"), std::string::npos) << bmp.err;
   EXPECT_EQ(png.exit_code, 0) << png.err;
+}
+
+TEST_F(CliImageFormatsTest, ThePluginIsNeverLoadedFromTheWorkingFolder) {
+  // Started by its bare name from PATH, the program's own path is not in argv[0]: the plugin must
+  // still be looked for beside the real executable, never relative to the working folder (which
+  // may belong to someone else). Copies of the plugin wait where relative paths would find them.
+  const auto work = folder_ / "untrusted";
+  const auto inside = work / "inside";
+  for (const auto& copy : {inside / "silpose", work / "lib" / "silpose"}) {
+    std::filesystem::create_directories(copy);
+    std::filesystem::copy_file(SILPOSE_CODECS_PLUGIN, copy / "libsilpose_opencv_codecs.so",
+                               std::filesystem::copy_options::overwrite_existing);
+  }
+  const auto log = folder_ / "loader_untrusted";
+  std::filesystem::create_directories(log);
+  const std::string binary_dir = std::filesystem::path(SILPOSE_BINARY).parent_path().string();
+  const std::string command = "cd " + inside.string() +
+                              " && LD_DEBUG=files LD_DEBUG_OUTPUT=" + (log / "files").string() +
+                              " PATH=" + binary_dir + ":$PATH silpose match -d " + Db() + " " +
+                              Mask(".bmp") + " >/dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << command;
+  std::string loaded;  // every plugin the loader opened, one per line
+  for (const auto& entry : std::filesystem::directory_iterator(log)) {
+    std::ifstream file(entry.path());
+    for (std::string line; std::getline(file, line);) {
+      const size_t at = line.find("file=");
+      if (at == std::string::npos) continue;
+      const std::string path = line.substr(at + 5, line.find(' ', at) - at - 5);
+      if (path.find("libsilpose_opencv_codecs") == std::string::npos) continue;
+      EXPECT_EQ(path.front(), '/') << path;
+      EXPECT_EQ(path.find(work.string()), std::string::npos) << path;
+      loaded += path + "\n";
+    }
+  }
+  std::filesystem::remove_all(log);
+  std::filesystem::remove_all(work);
+  EXPECT_FALSE(loaded.empty()) << "the loader listed no plugin";
 }
 
 }  // namespace

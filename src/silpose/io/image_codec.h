@@ -7,11 +7,20 @@
 //
 // The functions follow cv::imread / cv::imdecode / cv::imwrite / cv::imencode: the same `flags`
 // (cv::IMREAD_UNCHANGED, cv::IMREAD_GRAYSCALE, cv::IMREAD_COLOR), the same channel order (BGR,
-// BGRA), the same depths (8-bit, 16-bit with IMREAD_UNCHANGED), the same JPEG orientation rule
-// (the EXIF orientation is applied unless IMREAD_UNCHANGED) and the same parameters
-// (cv::IMWRITE_PNG_COMPRESSION, cv::IMWRITE_JPEG_QUALITY). Where they differ: a corrupt or
-// truncated PNG or JPEG throws cv::Exception with the decoder's reason instead of returning an
-// empty image, and nothing is printed to stderr.
+// BGRA), the same depths (8-bit, 16-bit with IMREAD_UNCHANGED), the same orientation rule (the
+// EXIF orientation of a JPEG's APP1 block or a PNG's eXIf chunk is applied unless
+// IMREAD_UNCHANGED) and the same parameters (cv::IMWRITE_PNG_COMPRESSION and
+// cv::IMWRITE_JPEG_QUALITY are applied here; any other setting sends the image to OpenCV's
+// encoder). Where they differ: a corrupt or truncated PNG or JPEG throws cv::Exception with the
+// decoder's reason (OpenCV returns an empty image, or for a truncated JPEG one whose missing rows
+// are grey), as does a progressive JPEG of more than 500 scans or an image file of more than
+// 2 GiB; and nothing is printed to stderr. Writing never leaves a partial file: on a write error
+// the file is removed.
+//
+// OpenCV's codecs are loaded from libsilpose_opencv_codecs.so: the file named by the environment
+// variable SILPOSE_OPENCV_CODECS if it is set, else the one installed beside the program or
+// library (lib/silpose/ under the installation prefix), never from a path relative to the working
+// folder.
 
 #include <cstdint>
 #include <filesystem>

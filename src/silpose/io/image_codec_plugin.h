@@ -14,7 +14,9 @@
 namespace silpose {
 
 struct OpenCvCodecs {
-  int version;  // kOpenCvCodecsVersion of the plugin's build
+  int version;         // kOpenCvCodecsVersion of the plugin's build
+  int opencv_version;  // kOpenCvVersion of the plugin's build: one OpenCV in the process
+  size_t size;         // sizeof(OpenCvCodecs) in the plugin's build
   bool (*read)(const char* path, int flags, cv::Mat* image, std::string* error);
   bool (*decode)(const unsigned char* data, size_t size, int flags, cv::Mat* image,
                  std::string* error);
@@ -22,7 +24,9 @@ struct OpenCvCodecs {
                  std::vector<unsigned char>* bytes, bool* encoded, std::string* error);
 };
 
-inline constexpr int kOpenCvCodecsVersion = 1;
+inline constexpr int kOpenCvCodecsVersion = 2;
+inline constexpr int kOpenCvVersion =
+    CV_VERSION_MAJOR * 10000 + CV_VERSION_MINOR * 100 + CV_VERSION_REVISION;
 
 }  // namespace silpose
 

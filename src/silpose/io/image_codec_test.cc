@@ -6,6 +6,10 @@
 #include "silpose/io/image_codec.h"
 
 #include <gtest/gtest.h>
+// clang-format off
+#include <cstdio>  // before jpeglib.h, which needs FILE
+#include <jpeglib.h>
+// clang-format on
 #include <zlib.h>
 
 #include <algorithm>
@@ -274,6 +278,130 @@ TEST(ImageCodec, JpegOrientationIsAppliedAsOpenCvAppliesIt) {
         EXPECT_EQ(ours.cols, turned ? 24 : 40);
       }
     }
+  }
+}
+
+TEST(ImageCodec, PngOrientationIsAppliedAsOpenCvAppliesIt) {
+  std::mt19937 random(8);
+  const Bytes png = MakePng(24, 40, 8, 2, false, &random);
+  Bytes plain;  // a JPEG only to take its EXIF block's TIFF data
+  ASSERT_TRUE(cv::imencode(".jpg", SmoothColourImage(8, 8), plain));
+  for (const bool little_endian : {true, false}) {
+    for (int orientation = 1; orientation <= 8; ++orientation) {
+      const Bytes jpeg = WithOrientation(plain, orientation, little_endian);
+      const size_t length = (size_t{jpeg[4]} << 8) | jpeg[5];
+      const Bytes tiff(jpeg.begin() + 4 + 2 + 6, jpeg.begin() + 4 + static_cast<long>(length));
+      Bytes with(png.begin(), png.begin() + 8 + 25);  // signature, IHDR
+      PutChunk(&with, "eXIf", tiff);
+      with.insert(with.end(), png.begin() + 8 + 25, png.end());
+      for (const int mode : kModes) {
+        const cv::Mat ours = DecodeImage(with, mode);
+        ExpectSameImage(
+            ours, cv::imdecode(with, mode),
+            "orientation " + std::to_string(orientation) + ", mode " + std::to_string(mode));
+        const bool turned = orientation >= 5 && mode != cv::IMREAD_UNCHANGED;
+        EXPECT_EQ(ours.cols, turned ? 40 : 24);
+      }
+    }
+  }
+}
+
+TEST(ImageCodec, EncodingParametersAreTheOnesOpenCvApplies) {
+  const cv::Mat image = SmoothColourImage(48, 64);
+  const std::vector<std::vector<int>> cases = {
+      {},
+      {cv::IMWRITE_PNG_COMPRESSION, 9},
+      {cv::IMWRITE_PNG_COMPRESSION, 0},
+      {cv::IMWRITE_PNG_COMPRESSION, -4},  // clamped to 0
+      {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_FILTERED},
+      {cv::IMWRITE_PNG_COMPRESSION, 6, cv::IMWRITE_PNG_STRATEGY,
+       cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY}};
+  for (const auto& params : cases) {
+    Bytes ours;
+    Bytes opencv;
+    ASSERT_TRUE(EncodeImage(".png", image, &ours, params));
+    ASSERT_TRUE(cv::imencode(".png", image, opencv, params));
+    EXPECT_EQ(ours, opencv) << "PNG parameters of " << params.size() / 2 << " settings";
+  }
+  for (const auto& params : std::vector<std::vector<int>>{
+           {cv::IMWRITE_JPEG_QUALITY, 70},
+           {cv::IMWRITE_JPEG_PROGRESSIVE, 1},
+           {cv::IMWRITE_JPEG_QUALITY, 80, cv::IMWRITE_JPEG_OPTIMIZE, 1}}) {
+    Bytes ours;
+    Bytes opencv;
+    ASSERT_TRUE(EncodeImage(".jpg", image, &ours, params));
+    ASSERT_TRUE(cv::imencode(".jpg", image, opencv, params));
+    EXPECT_EQ(ours.size(), opencv.size()) << "JPEG parameters " << params[0];
+    ExpectSameImage(DecodeImage(ours, cv::IMREAD_COLOR), cv::imdecode(opencv, cv::IMREAD_COLOR),
+                    "JPEG parameters " + std::to_string(params[0]));
+  }
+  Bytes bytes;
+  EXPECT_THROW((void)EncodeImage(".png", image, &bytes, {cv::IMWRITE_PNG_COMPRESSION}),
+               cv::Exception);
+}
+
+TEST(ImageCodec, TruncatedJpegIsAnErrorNotAnImageFilledWithGrey) {
+  Bytes jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", SmoothColourImage(64, 64), jpeg));
+  ASSERT_FALSE(DecodeImage(jpeg, cv::IMREAD_COLOR).empty());
+  const Bytes truncated(jpeg.begin(), jpeg.begin() + static_cast<long>(jpeg.size() * 2 / 3));
+  // OpenCV's codecs warn and return the image with its lower part grey.
+  EXPECT_FALSE(cv::imdecode(truncated, cv::IMREAD_COLOR).empty());
+  for (const int mode : kModes) {
+    try {
+      (void)DecodeImage(truncated, mode);
+      ADD_FAILURE() << "a truncated JPEG was decoded, mode " << mode;
+    } catch (const cv::Exception& exception) {
+      EXPECT_NE(exception.err.find("JPEG: "), std::string::npos) << exception.err;
+    }
+  }
+}
+
+// A progressive greyscale JPEG of 8x8 pixels with 1 + 63 x 10 scans: each AC coefficient in its
+// own scans, refined a bit at a time (valid, and slow to decode if the scans were thousands).
+Bytes ManyScanJpeg() {
+  std::vector<jpeg_scan_info> scans;
+  scans.push_back({1, {0, 0, 0, 0}, 0, 0, 0, 0});  // DC
+  for (int k = 1; k < 64; ++k) {
+    scans.push_back({1, {0, 0, 0, 0}, k, k, 0, 9});
+    for (int bit = 9; bit > 0; --bit) scans.push_back({1, {0, 0, 0, 0}, k, k, bit, bit - 1});
+  }
+  jpeg_compress_struct info{};
+  jpeg_error_mgr error{};
+  info.err = jpeg_std_error(&error);
+  jpeg_create_compress(&info);
+  unsigned char* buffer = nullptr;
+  unsigned long size = 0;
+  jpeg_mem_dest(&info, &buffer, &size);
+  info.image_width = 8;
+  info.image_height = 8;
+  info.input_components = 1;
+  info.in_color_space = JCS_GRAYSCALE;
+  jpeg_set_defaults(&info);
+  info.scan_info = scans.data();
+  info.num_scans = static_cast<int>(scans.size());
+  jpeg_start_compress(&info, TRUE);
+  std::array<JSAMPLE, 8> row{};
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) row[static_cast<size_t>(x)] = static_cast<JSAMPLE>(x * 30 + y * 5);
+    JSAMPROW pointer = row.data();
+    jpeg_write_scanlines(&info, &pointer, 1);
+  }
+  jpeg_finish_compress(&info);
+  jpeg_destroy_compress(&info);
+  Bytes out(buffer, buffer + size);
+  std::free(buffer);
+  return out;
+}
+
+TEST(ImageCodec, JpegWithHundredsOfScansIsRefused) {
+  const Bytes jpeg = ManyScanJpeg();
+  EXPECT_FALSE(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE).empty());  // a valid file
+  try {
+    (void)DecodeImage(jpeg, cv::IMREAD_GRAYSCALE);
+    ADD_FAILURE() << "a JPEG of 631 scans was decoded";
+  } catch (const cv::Exception& exception) {
+    EXPECT_NE(exception.err.find("more than 500 scans"), std::string::npos) << exception.err;
   }
 }
 

@@ -17,6 +17,8 @@ bool Guarded(std::string* error, const Body& body) {
     *error = exception.err;
   } catch (const std::exception& exception) {
     *error = exception.what();
+  } catch (...) {
+    *error = "unknown error in OpenCV's codecs";
   }
   return false;
 }
@@ -48,7 +50,12 @@ bool Encode(const char* extension, const cv::Mat* image, const int* params, size
   });
 }
 
-const silpose::OpenCvCodecs kCodecs{silpose::kOpenCvCodecsVersion, Read, Decode, Encode};
+const silpose::OpenCvCodecs kCodecs{silpose::kOpenCvCodecsVersion,
+                                    silpose::kOpenCvVersion,
+                                    sizeof(silpose::OpenCvCodecs),
+                                    Read,
+                                    Decode,
+                                    Encode};
 
 }  // namespace
 
