@@ -710,7 +710,25 @@ void ParticleFilter::ScoreParticles(const SignatureSpectrum& frame) {
     group_next_[i] = group_head_[key];
     group_head_[key] = static_cast<int32_t>(i);
   }
-  for (const int32_t key : touched_groups_) {
+  // The reference spectra are scattered over the database and seldom in the cache: the next
+  // group's is fetched while this one's is correlated.
+  auto prefetch = [&](size_t g) {
+    if (g >= touched_groups_.size()) return;
+    const int32_t key = touched_groups_[g];
+    const int object = key / num_views_;
+    const int view = key % num_views_;
+    const int shell = ShellOf(object, view);
+    if (!spectra_.Usable(object, view, shell)) return;
+    const SignatureSpectrum& next = spectra_.Get(object, view, shell);
+    const auto* bytes = reinterpret_cast<const char*>(next.coefficients.data());
+    const size_t size =
+        std::min(next.coefficients.size(), correlator_.harmonics()) * sizeof(std::complex<float>);
+    for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
+  };
+  prefetch(0);
+  for (size_t g = 0; g < touched_groups_.size(); ++g) {
+    prefetch(g + 1);
+    const int32_t key = touched_groups_[g];
     const int object = key / num_views_;
     const int view = key % num_views_;
     const int32_t head = group_head_[static_cast<size_t>(key)];

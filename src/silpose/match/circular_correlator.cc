@@ -20,20 +20,58 @@ struct BandLimitedValue {
   double bend = 0.0;
 };
 
+// The phases exp(i omega k s) advance in kLanes independent chains (k = j, j + kLanes, ...), each
+// rotated by exp(i omega kLanes s) per step: the same sums as one chain over k, without its
+// multiplication-latency bound (this is the filter's innermost loop).
 BandLimitedValue EvaluateBandLimited(std::span<const std::complex<float>> products, double omega,
                                      double shift) {
-  const std::complex<double> rotation = std::polar(1.0, omega * shift);
-  std::complex<double> phase(1.0, 0.0);
-  BandLimitedValue out;
-  for (size_t k = 0; k < products.size(); ++k) {
-    const std::complex<double> term = std::complex<double>(products[k]) * phase;
-    const double weight = k == 0 ? 1.0 : 2.0;
-    const double frequency = omega * static_cast<double>(k);
-    out.value += weight * term.real();
-    out.slope -= weight * frequency * term.imag();
-    out.bend -= weight * frequency * frequency * term.real();
-    phase *= rotation;
+  constexpr size_t kLanes = 4;
+  const double angle = omega * shift;
+  std::array<double, kLanes> phase_re{};
+  std::array<double, kLanes> phase_im{};
+  for (size_t j = 0; j < kLanes; ++j) {
+    phase_re[j] = std::cos(angle * static_cast<double>(j));
+    phase_im[j] = std::sin(angle * static_cast<double>(j));
   }
+  const double step_re = std::cos(angle * kLanes);
+  const double step_im = std::sin(angle * kLanes);
+  // Per lane: sum of Re(term), k Im(term), k^2 Re(term), every k weighted 2 (k = 0 fixed below).
+  std::array<double, kLanes> value{};
+  std::array<double, kLanes> slope{};
+  std::array<double, kLanes> bend{};
+  const size_t size = products.size();
+  for (size_t base = 0; base < size; base += kLanes) {
+    for (size_t j = 0; j < kLanes; ++j) {
+      const size_t k = base + j;
+      if (k < size) {
+        const double a = products[k].real();
+        const double b = products[k].imag();
+        const double re = a * phase_re[j] - b * phase_im[j];
+        const double im = a * phase_im[j] + b * phase_re[j];
+        const auto kd = static_cast<double>(k);
+        value[j] += re;
+        slope[j] += kd * im;
+        bend[j] += kd * kd * re;
+      }
+      const double next_re = phase_re[j] * step_re - phase_im[j] * step_im;
+      phase_im[j] = phase_re[j] * step_im + phase_im[j] * step_re;
+      phase_re[j] = next_re;
+    }
+  }
+  BandLimitedValue out;
+  double value_sum = 0.0;
+  double slope_sum = 0.0;
+  double bend_sum = 0.0;
+  for (size_t j = 0; j < kLanes; ++j) {
+    value_sum += value[j];
+    slope_sum += slope[j];
+    bend_sum += bend[j];
+  }
+  // Weights: 2 for every k but k = 0 (1), whose term is the real product P_0.
+  const double first = size > 0 ? static_cast<double>(products[0].real()) : 0.0;
+  out.value = 2.0 * value_sum - first;
+  out.slope = -2.0 * omega * slope_sum;
+  out.bend = -2.0 * omega * omega * bend_sum;
   return out;
 }
 
@@ -191,8 +229,16 @@ void CircularCorrelator::CoarseCorrelate(const SignatureSpectrum& query,
                                          const SignatureSpectrum& reference) {
   const size_t harmonics = bound_length_;
   SILPOSE_ASSERT(HasHarmonics(query) && HasHarmonics(reference));
+  // conj(Q_k) D_k written out: std::complex's product checks every result for NaN and does not
+  // vectorise.
+  const std::complex<float>* q = query.coefficients.data();
+  const std::complex<float>* d = reference.coefficients.data();
   for (size_t k = 0; k < harmonics; ++k) {
-    coarse_products_[k] = std::conj(query.coefficients[k]) * reference.coefficients[k];
+    const float qr = q[k].real();
+    const float qi = q[k].imag();
+    const float dr = d[k].real();
+    const float di = d[k].imag();
+    coarse_products_[k] = {qr * dr + qi * di, qr * di - qi * dr};
   }
   // The correlation at L evenly spaced shifts (s = j M / L), all of it for a band-limited signal.
   coarse_fft_->Inverse(coarse_products_.data(), coarse_samples_.data());
