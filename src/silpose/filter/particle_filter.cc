@@ -494,6 +494,12 @@ void ParticleFilter::PredictParticles() {
   const double sigma_rad = (options_.rotation_noise_deg + options_.rotation_noise_speed_factor *
                                                               (velocity_.norm() / kRadPerDeg)) *
                            kRadPerDeg;
+  // The same for every particle: made once per frame.
+  Eigen::Matrix3d velocity_step;
+  const bool moving = options_.velocity_share > 0.0 && velocity_.squaredNorm() > 0.0;
+  if (moving) {
+    velocity_step = Eigen::AngleAxisd(velocity_.norm(), velocity_.normalized()).toRotationMatrix();
+  }
   for (Particle& p : particles_) {
     if (options_.jump_probability > 0.0 && uniform(rng_) < options_.jump_probability) {
       p.view = std::uniform_int_distribution<int>(0, num_views_ - 1)(rng_);
@@ -502,7 +508,7 @@ void ParticleFilter::PredictParticles() {
       continue;
     }
     if (options_.motion_model == MotionModel::kAdaptive) {
-      PredictAdaptive(p, sigma_rad, uniform, normal);
+      PredictAdaptive(p, sigma_rad, moving ? &velocity_step : nullptr, uniform, normal);
       continue;
     }
     if (uniform(rng_) >= options_.stay_probability) {
@@ -523,6 +529,7 @@ void ParticleFilter::PredictParticles() {
 }
 
 void ParticleFilter::PredictAdaptive(Particle& p, double sigma_rad,
+                                     const Eigen::Matrix3d* velocity_step,
                                      std::uniform_real_distribution<double>& uniform,
                                      std::normal_distribution<double>& normal) {
   if (!p.roll_known) {
@@ -544,9 +551,8 @@ void ParticleFilter::PredictAdaptive(Particle& p, double sigma_rad,
   Eigen::Vector3d step(normal(rng_) * sigma_rad, normal(rng_) * sigma_rad,
                        normal(rng_) * sigma_rad);
   Eigen::Matrix3d moved = rotation;
-  if (options_.velocity_share > 0.0 && velocity_.squaredNorm() > 0.0 &&
-      uniform(rng_) < options_.velocity_share) {
-    moved = Eigen::AngleAxisd(velocity_.norm(), velocity_.normalized()).toRotationMatrix() * moved;
+  if (velocity_step != nullptr && uniform(rng_) < options_.velocity_share) {
+    moved = *velocity_step * moved;
   }
   const double angle = step.norm();
   if (angle > 0.0) moved = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * moved;

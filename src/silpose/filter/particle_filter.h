@@ -508,7 +508,8 @@ class ParticleFilter {
  private:
   FilterEstimate Advance(const SignatureSpectrum* frame);
   void PredictParticles();
-  void PredictAdaptive(Particle& particle, double sigma_rad,
+  /// `velocity_step`: the rotation of the velocity w over one frame (null if w is zero).
+  void PredictAdaptive(Particle& particle, double sigma_rad, const Eigen::Matrix3d* velocity_step,
                        std::uniform_real_distribution<double>& uniform,
                        std::normal_distribution<double>& normal);
   /// Where each object's particles start in particles_ (sorted by object), and the end.
