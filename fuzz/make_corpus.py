@@ -14,6 +14,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import zlib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CORPUS = os.path.join(ROOT, "fuzz", "corpus")
@@ -324,6 +325,30 @@ def images(synth_folder):
     bmp = b"BM" + struct.pack("<IHHI", 54 + len(pixels), 0, 0, 54)
     bmp += struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(pixels), 2835, 2835, 0, 0) + pixels
     put("mask", "frame.bmp", b"\x02" + bmp)
+    oriented_images(synth_folder)
+
+
+# EXIF orientation 6 (a quarter turn) as TIFF data, little-endian: one directory, one entry.
+TIFF_ORIENTATION_6 = (b"II*\x00" + struct.pack("<I", 8) + struct.pack("<H", 1) +
+                      struct.pack("<HHIHH", 0x0112, 3, 1, 6, 0) + struct.pack("<I", 0))
+
+
+def png_chunk(kind, data):
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(
+        ">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+
+def oriented_images(synth_folder):
+    # A JPEG frame of the MJPEG video with an EXIF block (APP1) after its SOI marker, and the mask
+    # PNG with an eXIf chunk after its header: both turned a quarter when decoded.
+    video = read(os.path.join(synth_folder, "video.avi"))
+    start = video.index(b"\xff\xd8\xff")
+    jpeg = video[start:video.index(b"\xff\xd9", start) + 2]
+    app1 = b"Exif\x00\x00" + TIFF_ORIENTATION_6
+    put("mask", "oriented.jpg",
+        b"\x01" + jpeg[:2] + b"\xff\xe1" + struct.pack(">H", len(app1) + 2) + app1 + jpeg[2:])
+    png = read(os.path.join(synth_folder, "masks", "000000.png"))
+    put("mask", "oriented.png", b"\x00" + png[:33] + png_chunk(b"eXIf", TIFF_ORIENTATION_6) + png[33:])
 
 
 # --- arbitrary masks for match_fuzzer: width-1, zoom, then one bit per pixel
