@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "silpose/cli/commands.h"
+#include "silpose/io/image_limits.h"
 #include "silpose/util/error.h"
 
 namespace {
@@ -22,6 +23,9 @@ std::string OneLine(const char* text) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Sets OpenCV's decoder limit in the environment now, while this is the only thread: later,
+  // setenv would race with other threads' getenv.
+  silpose::LimitOpenCvDecoders();
   CLI::App app{
       "silpose: identify a known rigid object and its pose from its silhouette.\n"
       "Typical use: 'silpose build-db MODELS... -o models.db', then 'silpose match -d models.db "

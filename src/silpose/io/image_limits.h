@@ -26,7 +26,9 @@ void CheckImageSize(const std::string& name, int64_t width, int64_t height);
 void CheckImageFileSize(const std::filesystem::path& path);
 
 /// OpenCV's decoders read OPENCV_IO_MAX_IMAGE_PIXELS the first time they run: sets it to
-/// kMaxImagePixels unless the user set it.
+/// kMaxImagePixels unless the user set it. Called before any image is decoded through OpenCV;
+/// setenv is not safe while other threads read the environment, so a multi-threaded program calls
+/// it once at its start (the silpose command does).
 void LimitOpenCvDecoders();
 
 }  // namespace silpose
