@@ -6,6 +6,8 @@
 #include "silpose/io/image_codec.h"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 // clang-format off
 #include <cstdio>  // before jpeglib.h, which needs FILE
 #include <jpeglib.h>
@@ -13,6 +15,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -403,6 +406,50 @@ TEST(ImageCodec, JpegWithHundredsOfScansIsRefused) {
   } catch (const cv::Exception& exception) {
     EXPECT_NE(exception.err.find("more than 500 scans"), std::string::npos) << exception.err;
   }
+}
+
+TEST(ImageCodec, ImageFilesLargerThanAnyAllowedImageAreRefusedBeforeTheyAreRead) {
+  // A sparse file of 3 GiB that starts as a PNG: refused from its size, nothing read.
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("silpose_image_codec_huge_" + std::to_string(::getpid()) + ".png");
+  {
+    std::ofstream file(path, std::ios::binary);
+    const Bytes signature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+    file.write(reinterpret_cast<const char*>(signature.data()),
+               static_cast<std::streamsize>(signature.size()));
+  }
+  std::filesystem::resize_file(path, uintmax_t{3} << 30);
+  try {
+    (void)ReadImage(path, cv::IMREAD_UNCHANGED);
+    ADD_FAILURE() << "a 3 GiB image file was read";
+  } catch (const cv::Exception& exception) {
+    EXPECT_NE(exception.err.find("3072 MiB"), std::string::npos) << exception.err;
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(ImageCodec, AFailedWriteReportsFalseAndLeavesNoPartialFile) {
+  cv::Mat noise(256, 256, CV_8UC3);
+  cv::randu(noise, 0, 256);  // about 200 kB as PNG
+  EXPECT_FALSE(WriteImage("/nonexistent/silpose/frame.png", noise));
+  // A file size limit of 16 kB makes the write fail part-way (EFBIG, the signal ignored).
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("silpose_image_codec_partial_" + std::to_string(::getpid()) + ".png");
+  rlimit saved{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &saved), 0);
+  auto* const previous = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = saved;
+  small.rlim_cur = 16 << 10;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  const bool written = WriteImage(path, noise);
+  ::setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, previous);
+  EXPECT_FALSE(written);
+  EXPECT_FALSE(std::filesystem::exists(path)) << "a partial image was left behind";
+  std::filesystem::remove(path);
+  EXPECT_TRUE(WriteImage(path, noise));  // without the limit
+  EXPECT_EQ(cv::norm(ReadImage(path, cv::IMREAD_UNCHANGED), noise, cv::NORM_INF), 0.0);
+  std::filesystem::remove(path);
 }
 
 TEST(ImageCodec, BrokenPngAndJpegThrowWithTheDecodersReason) {
