@@ -716,37 +716,37 @@ void ParticleFilter::ScoreParticles(const SignatureSpectrum& frame) {
     group_next_[i] = group_head_[key];
     group_head_[key] = static_cast<int32_t>(i);
   }
-  // The reference spectra are scattered over the database and seldom in the cache: the next
-  // group's is fetched while this one's is correlated.
-  auto prefetch = [&](size_t g) {
-    if (g >= touched_groups_.size()) return;
+  // A group's reference spectrum (null if the view is unusable), its data requested now: the
+  // spectra are scattered over the database and seldom in the cache, so the next group's is
+  // fetched while this one's is correlated.
+  auto fetch = [&](size_t g) -> const SignatureSpectrum* {
+    if (g >= touched_groups_.size()) return nullptr;
     const int32_t key = touched_groups_[g];
     const int object = key / num_views_;
     const int view = key % num_views_;
     const int shell = ShellOf(object, view);
-    if (!spectra_.Usable(object, view, shell)) return;
-    const SignatureSpectrum& next = spectra_.Get(object, view, shell);
-    const auto* bytes = reinterpret_cast<const char*>(next.coefficients.data());
-    const size_t size =
-        std::min(next.coefficients.size(), correlator_.harmonics()) * sizeof(std::complex<float>);
+    if (!spectra_.Usable(object, view, shell)) return nullptr;
+    const SignatureSpectrum& spectrum = spectra_.Get(object, view, shell);
+    const auto* bytes = reinterpret_cast<const char*>(spectrum.coefficients.data());
+    const size_t size = std::min(spectrum.coefficients.size(), correlator_.harmonics()) *
+                        sizeof(std::complex<float>);
     for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
+    return &spectrum;
   };
-  prefetch(0);
+  const SignatureSpectrum* next = fetch(0);
   for (size_t g = 0; g < touched_groups_.size(); ++g) {
-    prefetch(g + 1);
+    const SignatureSpectrum* const current = next;
+    next = fetch(g + 1);
     const int32_t key = touched_groups_[g];
-    const int object = key / num_views_;
-    const int view = key % num_views_;
     const int32_t head = group_head_[static_cast<size_t>(key)];
     group_head_[static_cast<size_t>(key)] = -1;
-    const int shell = ShellOf(object, view);
-    if (!spectra_.Usable(object, view, shell)) {
+    if (current == nullptr) {
       for (int32_t i = head; i >= 0; i = group_next_[static_cast<size_t>(i)]) {
         particles_[static_cast<size_t>(i)].score = -1.0f;
       }
       continue;
     }
-    const SignatureSpectrum& reference = spectra_.Get(object, view, shell);
+    const SignatureSpectrum& reference = *current;
     group_starts_.clear();
     group_members_.clear();
     bool any_unknown = false;

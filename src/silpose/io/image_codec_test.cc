@@ -226,14 +226,15 @@ TEST(ImageCodec, JpegDecodesAsOpenCvDecodesItAndEncodesCloseToTheImage) {
   EXPECT_EQ(DecodeImage(bytes, cv::IMREAD_UNCHANGED).type(), CV_8UC3);
 }
 
-// A JPEG with an EXIF block (APP1) whose orientation tag says `orientation`.
-Bytes WithOrientation(const Bytes& jpeg, int orientation, bool little_endian) {
-  Bytes exif = {'E', 'x', 'i', 'f', 0, 0};
+// EXIF data in TIFF form (as a PNG's eXIf chunk holds it) whose orientation tag says
+// `orientation`: one directory with one entry, in either byte order.
+Bytes TiffWithOrientation(int orientation, bool little_endian) {
+  Bytes tiff;
   auto u16 = [&](uint32_t v) {
     if (little_endian) {
-      exif.insert(exif.end(), {static_cast<uint8_t>(v), static_cast<uint8_t>(v >> 8)});
+      tiff.insert(tiff.end(), {static_cast<uint8_t>(v), static_cast<uint8_t>(v >> 8)});
     } else {
-      exif.insert(exif.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v)});
+      tiff.insert(tiff.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v)});
     }
   };
   auto u32 = [&](uint32_t v) {
@@ -245,7 +246,7 @@ Bytes WithOrientation(const Bytes& jpeg, int orientation, bool little_endian) {
       u16(v & 0xFFFF);
     }
   };
-  exif.insert(exif.end(), little_endian ? std::initializer_list<uint8_t>{'I', 'I'}
+  tiff.insert(tiff.end(), little_endian ? std::initializer_list<uint8_t>{'I', 'I'}
                                         : std::initializer_list<uint8_t>{'M', 'M'});
   u16(42);
   u32(8);  // first directory right after the header
@@ -255,7 +256,15 @@ Bytes WithOrientation(const Bytes& jpeg, int orientation, bool little_endian) {
   u32(1);
   u16(static_cast<uint32_t>(orientation));
   u16(0);
-  u32(0);                                     // no next directory
+  u32(0);  // no next directory
+  return tiff;
+}
+
+// A JPEG with an EXIF block (APP1) whose orientation tag says `orientation`.
+Bytes WithOrientation(const Bytes& jpeg, int orientation, bool little_endian) {
+  Bytes exif = {'E', 'x', 'i', 'f', 0, 0};
+  const Bytes tiff = TiffWithOrientation(orientation, little_endian);
+  exif.insert(exif.end(), tiff.begin(), tiff.end());
   Bytes out(jpeg.begin(), jpeg.begin() + 2);  // SOI
   const auto length = static_cast<uint32_t>(exif.size() + 2);
   out.insert(out.end(),
@@ -265,46 +274,41 @@ Bytes WithOrientation(const Bytes& jpeg, int orientation, bool little_endian) {
   return out;
 }
 
+// `image` (stored `cols` pixels wide, `rows` high) with the given orientation decodes as OpenCV
+// decodes it in every mode: turned a quarter for 5-8, except unchanged, which keeps the stored
+// layout.
+void ExpectOrientedAsOpenCv(const Bytes& image, int orientation, int rows, int cols) {
+  for (const int mode : kModes) {
+    const cv::Mat ours = DecodeImage(image, mode);
+    ExpectSameImage(
+        ours, cv::imdecode(image, mode),
+        "orientation " + std::to_string(orientation) + ", mode " + std::to_string(mode));
+    const bool turned = orientation >= 5 && mode != cv::IMREAD_UNCHANGED;
+    EXPECT_EQ(ours.cols, turned ? rows : cols);
+  }
+}
+
 TEST(ImageCodec, JpegOrientationIsAppliedAsOpenCvAppliesIt) {
   Bytes plain;
   ASSERT_TRUE(cv::imencode(".jpg", SmoothColourImage(24, 40), plain));
   for (const bool little_endian : {true, false}) {
     for (int orientation = 1; orientation <= 8; ++orientation) {
-      const Bytes jpeg = WithOrientation(plain, orientation, little_endian);
-      for (const int mode : kModes) {
-        const cv::Mat ours = DecodeImage(jpeg, mode);
-        ExpectSameImage(
-            ours, cv::imdecode(jpeg, mode),
-            "orientation " + std::to_string(orientation) + ", mode " + std::to_string(mode));
-        // Turned a quarter for 5-8, except unchanged, which keeps the stored layout.
-        const bool turned = orientation >= 5 && mode != cv::IMREAD_UNCHANGED;
-        EXPECT_EQ(ours.cols, turned ? 24 : 40);
-      }
+      ExpectOrientedAsOpenCv(WithOrientation(plain, orientation, little_endian), orientation, 24,
+                             40);
     }
   }
 }
 
 TEST(ImageCodec, PngOrientationIsAppliedAsOpenCvAppliesIt) {
   std::mt19937 random(8);
-  const Bytes png = MakePng(24, 40, 8, 2, false, &random);
-  Bytes plain;  // a JPEG only to take its EXIF block's TIFF data
-  ASSERT_TRUE(cv::imencode(".jpg", SmoothColourImage(8, 8), plain));
+  const Bytes png = MakePng(24, 40, 8, 2, false, &random);  // 24 wide, 40 high
+  constexpr size_t kHeaderEnd = 8 + 25;                     // signature, IHDR
   for (const bool little_endian : {true, false}) {
     for (int orientation = 1; orientation <= 8; ++orientation) {
-      const Bytes jpeg = WithOrientation(plain, orientation, little_endian);
-      const size_t length = (size_t{jpeg[4]} << 8) | jpeg[5];
-      const Bytes tiff(jpeg.begin() + 4 + 2 + 6, jpeg.begin() + 4 + static_cast<long>(length));
-      Bytes with(png.begin(), png.begin() + 8 + 25);  // signature, IHDR
-      PutChunk(&with, "eXIf", tiff);
-      with.insert(with.end(), png.begin() + 8 + 25, png.end());
-      for (const int mode : kModes) {
-        const cv::Mat ours = DecodeImage(with, mode);
-        ExpectSameImage(
-            ours, cv::imdecode(with, mode),
-            "orientation " + std::to_string(orientation) + ", mode " + std::to_string(mode));
-        const bool turned = orientation >= 5 && mode != cv::IMREAD_UNCHANGED;
-        EXPECT_EQ(ours.cols, turned ? 40 : 24);
-      }
+      Bytes with(png.begin(), png.begin() + kHeaderEnd);
+      PutChunk(&with, "eXIf", TiffWithOrientation(orientation, little_endian));
+      with.insert(with.end(), png.begin() + kHeaderEnd, png.end());
+      ExpectOrientedAsOpenCv(with, orientation, 40, 24);
     }
   }
 }

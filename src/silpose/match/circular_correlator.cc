@@ -26,15 +26,19 @@ struct BandLimitedValue {
 BandLimitedValue EvaluateBandLimited(std::span<const std::complex<float>> products, double omega,
                                      double shift) {
   constexpr size_t kLanes = 4;
+  // Lane j starts at exp(i j angle) and steps by exp(i kLanes angle): powers of one rotation.
   const double angle = omega * shift;
+  const double rotation_re = std::cos(angle);
+  const double rotation_im = std::sin(angle);
   std::array<double, kLanes> phase_re{};
   std::array<double, kLanes> phase_im{};
-  for (size_t j = 0; j < kLanes; ++j) {
-    phase_re[j] = std::cos(angle * static_cast<double>(j));
-    phase_im[j] = std::sin(angle * static_cast<double>(j));
+  phase_re[0] = 1.0;
+  for (size_t j = 1; j < kLanes; ++j) {
+    phase_re[j] = phase_re[j - 1] * rotation_re - phase_im[j - 1] * rotation_im;
+    phase_im[j] = phase_re[j - 1] * rotation_im + phase_im[j - 1] * rotation_re;
   }
-  const double step_re = std::cos(angle * kLanes);
-  const double step_im = std::sin(angle * kLanes);
+  const double step_re = phase_re[kLanes - 1] * rotation_re - phase_im[kLanes - 1] * rotation_im;
+  const double step_im = phase_re[kLanes - 1] * rotation_im + phase_im[kLanes - 1] * rotation_re;
   // Per lane: sum of Re(term), k Im(term), k^2 Re(term), every k weighted 2 (k = 0 fixed below).
   std::array<double, kLanes> value{};
   std::array<double, kLanes> slope{};
