@@ -75,14 +75,14 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
   EXPECT_EQ(frames[0],
             "model,unknown,fit,condition,seed,frame,silhouette,correct,confidence,state,"
             "object_probability,mode_mass,runner_up_ratio,score_sharpness,has_fit,iou,"
-            "outline_rms,area_change,recent_iou,recent_outline_rms,twin_gap");
+            "outline_rms,area_change,recent_iou,recent_outline_rms,twin_gap,pose_gap");
   // Fit: 2 models x (3 conditions + 2 look-alike ones); held out: 2 x 3 + hand x 2; 40 frames.
   EXPECT_EQ(frames.size(), 1u + (2u * 5u + 2u * 3u + 2u) * 40u);
   std::set<std::string> models;
   int unknown = 0, trusted_unknown = 0;
   for (size_t i = 1; i < frames.size(); ++i) {
     const std::vector<std::string> cells = Cells(frames[i]);
-    ASSERT_EQ(cells.size(), 21u) << frames[i];
+    ASSERT_EQ(cells.size(), 22u) << frames[i];
     models.insert(cells[0]);
     const double confidence = std::stod(cells[8]);
     EXPECT_GE(confidence, 0.0);
@@ -98,7 +98,7 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
   EXPECT_EQ(models, (std::set<std::string>{"anchor", "bunny", "bunny-lookalike", "cow",
                                            "cow-lookalike", "elephant", "hand"}));
   EXPECT_EQ(ReadLines(out_ + "/reliability.csv").size(), 11u);
-  EXPECT_EQ(ReadLines(out_ + "/model.txt").size(), 12u);  // bias and 11 weights
+  EXPECT_EQ(ReadLines(out_ + "/model.txt").size(), 13u);  // bias and 12 weights
   EXPECT_NE(quick_->out.find("lowest threshold with at most 1 %"), std::string::npos);
   EXPECT_GT(std::filesystem::file_size(out_ + "/confidence.png"), 1000u);
 }

@@ -21,7 +21,8 @@ std::array<double, ConfidenceFeatures::kSize> ConfidenceFeatures::Vector() const
           std::isfinite(area_change) ? std::min(area_change, 2.0) : 2.0,
           std::isfinite(recent_iou) ? recent_iou : 0.0,
           std::isfinite(recent_outline_rms) ? std::min(recent_outline_rms, 1.0) : 1.0,
-          std::isfinite(twin_score_gap) ? std::clamp(twin_score_gap, 0.0, 0.05) / 0.05 : 1.0};
+          std::isfinite(twin_score_gap) ? std::clamp(twin_score_gap, 0.0, 0.05) / 0.05 : 1.0,
+          std::isfinite(pose_score_gap) ? std::clamp(pose_score_gap, 0.0, 0.05) / 0.05 : 1.0};
 }
 
 const std::array<const char*, ConfidenceFeatures::kSize>& ConfidenceFeatures::Names() {
@@ -29,7 +30,7 @@ const std::array<const char*, ConfidenceFeatures::kSize>& ConfidenceFeatures::Na
       "object_probability", "mode_mass",   "runner_up_ratio",
       "score_sharpness",    "has_fit",     "iou",
       "outline_rms",        "area_change", "recent_iou",
-      "recent_outline_rms", "twin_gap"};
+      "recent_outline_rms", "twin_gap",    "pose_gap"};
   return names;
 }
 
@@ -37,9 +38,9 @@ ConfidenceModel ConfidenceModel::Default() {
   // Fitted by `silpose eval confidence --sequences 3 --frames 100` on the sample models (fit on
   // bunny and cow and their look-alikes; docs/confidence.md), printed to model.txt.
   ConfidenceModel model;
-  model.bias = -8.66630556;
-  model.weights = {0.418198083, -0.525975994, -1.34197605, 0.520792684, 0.304042464, 6.5285324,
-                   -34.136764,  0.108354101,  4.33033582,  -4.79135576, 0.284848779};
+  model.bias = -8.77299704;
+  model.weights = {0.624006636, -0.563270365, -1.02675116, 0.564284185, 0.34835346,   6.14440914,
+                   -32.837699,  0.138769946,  4.29612008,  -4.81723138, 0.0284922407, 1.0637667};
   return model;
 }
 
@@ -74,6 +75,8 @@ bool TrackStateOptions::Check(std::string* error) const {
     message << "ambiguous score gap must be >= 0, got " << ambiguous_score_gap;
   } else if (!(twin_score_gap >= 0.0) || !std::isfinite(twin_score_gap)) {
     message << "twin score gap must be >= 0, got " << twin_score_gap;
+  } else if (!(pose_score_gap >= 0.0) || !std::isfinite(pose_score_gap)) {
+    message << "pose score gap must be >= 0, got " << pose_score_gap;
   } else if (!(unknown_fit_iou >= 0.0 && unknown_fit_iou <= 1.0)) {
     message << "unknown-object IoU must be in [0, 1], got " << unknown_fit_iou;
   } else if (fit_frames < 3 || fit_frames > 100000) {
@@ -129,7 +132,9 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
       runner_up_score >= features->score - options_.ambiguous_score_gap;
   out.twin_alike = std::isfinite(features->twin_score_gap) &&
                    features->twin_score_gap <= options_.twin_score_gap;
-  const bool ambiguous = out.competing_mode || out.twin_alike;
+  out.pose_alike = std::isfinite(features->pose_score_gap) &&
+                   features->pose_score_gap <= options_.pose_score_gap;
+  const bool ambiguous = out.competing_mode || out.twin_alike || out.pose_alike;
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
   } else if (ambiguous && fit_known && mean_fit >= options_.unknown_fit_iou) {

@@ -23,9 +23,10 @@
 //  - confidence >= min_confidence and no competing mode (one with at least ambiguous_mass_ratio
 //    of the reported mode's weight and a score within ambiguous_score_gap of the reported one):
 //    kTracking;
-//  - a competing mode, or a mirror twin whose score is within twin_score_gap of the reported one
-//    (ConfidenceFeatures::twin_score_gap), and the model fits (the mean IoU over the last
-//    fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou): kAmbiguous;
+//  - a competing mode, a mirror twin whose score is within twin_score_gap of the reported one
+//    (ConfidenceFeatures::twin_score_gap), or another pose scoring at least as well
+//    (ConfidenceFeatures::pose_score_gap, pose_score_gap), and the model fits (the mean IoU over
+//    the last fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou): kAmbiguous;
 //  - the object was tracked (kTracking) in at least 3 of the last fit_frames frames:
 //    kBadSegmentation (an occluder, a hand, a failed mask: the outline no longer fits);
 //  - that mean IoU below unknown_fit_iou: kUnknownObject (no database object has fitted for a
@@ -69,12 +70,20 @@ struct ConfidenceFeatures {
   /// twins (the views whose outline is the same up to perspective, farther than the mode radius);
   /// NaN when there is no such twin. Near 0: the outline cannot tell the two poses apart.
   double twin_score_gap = std::numeric_limits<double>::quiet_NaN();
+  /// The reported database view's best score (any roll) minus the best score of another pose of
+  /// the same object: one farther than the filter's mode radius (15 degrees of rotation, modulo
+  /// the object's symmetry) from the reported pose, i.e. another view, a mirror twin, or the
+  /// reported view at another roll. NaN when not measured. At or below 0: another pose explains
+  /// the outline as well, so the outline cannot vouch for this one (a nearly round object turned
+  /// by half a step, a mug whose handle is hidden).
+  double pose_score_gap = std::numeric_limits<double>::quiet_NaN();
 
-  static constexpr int kSize = 11;
+  static constexpr int kSize = 12;
   /// The regression's inputs: object_probability, mode_mass, min(runner_up_mass / max(mode_mass,
   /// 0.01), 3), -log10(max(1 - score, 1e-4)), has_fit, iou (0 without fit), min(outline_rms, 1)
   /// (0 without fit), min(area_change, 2), recent_iou, min(recent_outline_rms, 1),
-  /// clamp(twin_score_gap, 0, 0.05) / 0.05 (1 without a twin).
+  /// clamp(twin_score_gap, 0, 0.05) / 0.05 (1 without a twin), clamp(pose_score_gap, 0, 0.05) /
+  /// 0.05 (1 when not measured).
   std::array<double, kSize> Vector() const;
   /// Their names, in that order (for CSV headers).
   static const std::array<const char*, kSize>& Names();
@@ -109,6 +118,13 @@ struct TrackStateOptions {
   /// on the fit set of `silpose eval confidence` (the cow's hand-held sequences), of the frames
   /// whose twin came within 0.002, 83 % were wrong; within 0.01, 55 %.
   double twin_score_gap = 0.002;
+  /// kAmbiguous also when another pose of the object (ConfidenceFeatures::pose_score_gap: farther
+  /// than the filter's mode radius, modulo symmetry) scores at least the reported score minus
+  /// this, >= 0. At 0 (the default) the rule is the state's definition, not a fitted threshold:
+  /// the other pose explains the outline at least as well. (On the tuning models the filter's
+  /// choice was right in such frames nearly always; on the reference models, where outlines such
+  /// as a mug's with its handle hidden fit whole ranges of poses, a quarter of them were wrong.)
+  double pose_score_gap = 0.0;
   /// kUnknownObject below this mean IoU over the last fit_frames frames, in [0, 1].
   double unknown_fit_iou = 0.9;
   /// Frames of memory for the unknown-object and bad-segmentation rules, >= 3.
@@ -129,9 +145,10 @@ class TrackStateEstimator {
     double confidence = 0.0;
     TrackState state = TrackState::kNoSilhouette;
     /// Which ambiguity rule held (whatever the state): a competing posterior mode, a mirror twin
-    /// within twin_score_gap.
+    /// within twin_score_gap, another pose within pose_score_gap.
     bool competing_mode = false;
     bool twin_alike = false;
+    bool pose_alike = false;
   };
   /// A frame with a silhouette: sets features->recent_iou and recent_outline_rms, then the
   /// confidence and state. `runner_up_score` is the competing mode's score (ignored when

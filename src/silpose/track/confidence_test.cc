@@ -52,6 +52,19 @@ TEST(ConfidenceFeatures, VectorTransformsAndBoundsEveryInput) {
   EXPECT_EQ(y[2], 3.0);
   for (double v : y) EXPECT_TRUE(std::isfinite(v));
   EXPECT_EQ(ConfidenceFeatures::Names().size(), x.size());
+  // The twin and pose gaps: clamped to [0, 0.05] and scaled to [0, 1]; unmeasured counts as clear.
+  EXPECT_EQ(x[10], 1.0);
+  EXPECT_EQ(x[11], 1.0);
+  ConfidenceFeatures gaps = GoodFit();
+  gaps.twin_score_gap = 0.01;
+  gaps.pose_score_gap = -0.3;
+  EXPECT_NEAR(gaps.Vector()[10], 0.2, 1e-12);
+  EXPECT_EQ(gaps.Vector()[11], 0.0);
+  gaps.pose_score_gap = 0.025;
+  EXPECT_NEAR(gaps.Vector()[11], 0.5, 1e-12);
+  gaps.pose_score_gap = 0.4;
+  EXPECT_EQ(gaps.Vector()[11], 1.0);
+  EXPECT_STREQ(ConfidenceFeatures::Names()[11], "pose_gap");
 }
 
 TEST(ConfidenceModel, DefaultModelRanksAGoodFitAboveAPoorOne) {
@@ -115,6 +128,28 @@ TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
   EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kAmbiguous);
   mirrored.twin_score_gap = 0.2;
   EXPECT_EQ(tracker.Measured(&mirrored, -1.0).state, TrackState::kTracking);
+  // Another pose (any view or roll beyond the mode radius) that scores at least as well as the
+  // reported one: ambiguous, and the rule says which; one that scores less is not.
+  ConfidenceFeatures other = GoodFit();
+  other.pose_score_gap = 0.0;
+  const TrackStateEstimator::Output alike = tracker.Measured(&other, -1.0);
+  EXPECT_EQ(alike.state, TrackState::kAmbiguous);
+  EXPECT_TRUE(alike.pose_alike);
+  EXPECT_FALSE(alike.twin_alike);
+  EXPECT_FALSE(alike.competing_mode);
+  other.pose_score_gap = 0.001;
+  const TrackStateEstimator::Output clear_pose = tracker.Measured(&other, -1.0);
+  EXPECT_EQ(clear_pose.state, TrackState::kTracking);
+  EXPECT_FALSE(clear_pose.pose_alike);
+  // A looser threshold makes that frame ambiguous too.
+  TrackStateOptions loose;
+  loose.pose_score_gap = 0.002;
+  TrackStateEstimator loose_tracker(loose);
+  for (int i = 0; i < 3; ++i) {
+    ConfidenceFeatures f = GoodFit();
+    loose_tracker.Measured(&f, -1.0);
+  }
+  EXPECT_EQ(loose_tracker.Measured(&other, -1.0).state, TrackState::kAmbiguous);
   // Not tracked lately, the model fits, the area jumps: bad segmentation; without the jump: lost.
   TrackStateEstimator fresh;
   ConfidenceFeatures jump = GoodFit();
@@ -149,6 +184,10 @@ TEST(TrackStateOptions, InvalidValuesAreRefusedWithTheirName) {
   options.fit_frames = 2;  // the bad-segmentation rule needs 3 tracked frames in the window
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("fit frames"), std::string::npos);
+  options = {};
+  options.pose_score_gap = -0.01;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("pose score gap"), std::string::npos);
   EXPECT_THROW(TrackStateEstimator{options}, Error);
 }
 

@@ -200,8 +200,20 @@ class Tracker {
   /// The best-scoring mirror twin of the reported database view `view` farther than the filter's
   /// mode radius (modulo rotational symmetry); false if the object has no mirror plane, no such
   /// twin, or the frame's signature is flat.
-  bool ScoreMirrorTwin(std::span<const float> radii, int view, int shell, TrackedFrame* tracked,
-                       MirrorTwin* twin);
+  /// twin_query_ must hold the frame's spectrum.
+  bool ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin);
+  /// ConfidenceFeatures::pose_score_gap of the reported database view `view` (shell `shell`) of
+  /// `object`, from the frame's spectrum in twin_query_: its best score against the object's
+  /// best-scoring views (a search of that object alone) and the local maxima of its own
+  /// correlation over the roll, the best of them farther than the filter's mode radius from the
+  /// reported pose (rotation modulo symmetry). That pose (view, roll) goes to `other` (view -1 when
+  /// none was found and the gap is a bound).
+  struct OtherPose {
+    int view = -1;
+    double roll_deg = 0.0;
+  };
+  double ScorePoseGap(std::span<const float> radii, int object, int view, int shell,
+                      double apparent_radius, OtherPose* other);
   /// The IoU and outline RMS (pixels) of the model at the frame's pose: the refinement's, or
   /// (refinement off) after one refinement step; unchanged (NaN) without a pose.
   void MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px);
@@ -212,6 +224,11 @@ class Tracker {
   /// Per model: views alike by its rotational symmetries.
   std::vector<ViewEquivalence> equivalence_;
   SignatureSpectrum twin_query_;
+  /// Per model: its symmetry transforms, coarsely sampled (ScorePoseGap; made when first needed).
+  std::vector<std::vector<Rigid3>> pose_gap_transforms_;
+  std::vector<float> correlation_;
+  /// The frame silhouette's apparent size (Process), for Assess.
+  double apparent_radius_ = 0.0;
   int frame_ = 0;
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
@@ -13,6 +14,7 @@
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/pose/pose_error.h"
+#include "silpose/render/silhouette_renderer.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/util/error.h"
 
@@ -264,6 +266,47 @@ TEST(Tracker, ConfidenceAndStateTellATrackedObjectFromOneNotInTheDatabase) {
   const FrameResult none = tracker.Process(blank).result;
   EXPECT_EQ(none.state, TrackState::kNoSilhouette);
   EXPECT_EQ(none.confidence, 0.0);
+}
+
+// One frame of `model` (0 cow, 1 hand) seen from `view_dir` at `distance_radii`, its silhouette
+// about 200 px across in a 640 x 480 image, tracked alone by brute force.
+TrackedFrame TrackOneView(int model, const Eigen::Vector3d& view_dir, double distance_radii) {
+  const TriangleMesh mesh = LoadMesh(kModels / (model == 0 ? "cow.obj" : "hand.obj"));
+  const PinholeCamera camera = PinholeCamera::Centered(640, 480, 100.0 * distance_radii);
+  cv::Mat mask;
+  RenderSilhouette(mesh, camera,
+                   CameraFromObjectAtView(view_dir.normalized(), 20.0,
+                                          distance_radii * mesh.Radius(), mesh.Centre()),
+                   &mask);
+  TrackerOptions options;
+  options.brute_force = true;
+  Tracker tracker(Database(), camera, options);
+  return tracker.Process(mask);
+}
+
+TEST(Tracker, PoseGapIsSmallWhereAnotherPoseCastsTheSameOutline) {
+  // The cow has one mirror plane (normal along its z axis); seen from far away from a direction
+  // off the plane and off its normal, its mirror twin (a pose far from the true one) casts the
+  // same outline up to perspective, so another pose explains the frame nearly as well: the pose
+  // gap is small, at most the twin's own gap (both are limited by the 400-view grid here), and
+  // below that of an asymmetric object seen from a generic direction.
+  const Eigen::Vector3d oblique(0.6, 0.5, 0.62);
+  const TrackedFrame far = TrackOneView(0, oblique, 40.0);
+  ASSERT_EQ(far.result.object, 0);
+  ASSERT_TRUE(far.confidence_features.has_value());
+  const double twin_gap = far.confidence_features->twin_score_gap;
+  const double pose_gap = far.confidence_features->pose_score_gap;
+  ASSERT_TRUE(std::isfinite(pose_gap));
+  ASSERT_TRUE(std::isfinite(twin_gap));
+  EXPECT_LT(pose_gap, 0.03);
+  EXPECT_LE(pose_gap, twin_gap);
+  // The hand has no symmetry: nearby at 4 radii, from a generic direction, no far pose fits.
+  const TrackedFrame hand = TrackOneView(1, Eigen::Vector3d(0.3, -0.8, 0.5), 4.0);
+  ASSERT_EQ(hand.result.object, 1);
+  ASSERT_TRUE(hand.confidence_features.has_value());
+  EXPECT_FALSE(std::isfinite(hand.confidence_features->twin_score_gap));
+  EXPECT_GT(hand.confidence_features->pose_score_gap, 2.0 * pose_gap);
+  EXPECT_GT(hand.confidence_features->pose_score_gap, 0.03);
 }
 
 // The cow's silhouette shrunk by `scale` and centred at `centre` in an empty frame.
