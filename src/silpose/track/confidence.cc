@@ -38,9 +38,9 @@ ConfidenceModel ConfidenceModel::Default() {
   // Fitted by `silpose eval confidence --sequences 3 --frames 100` on the sample models (fit on
   // bunny and cow and their look-alikes; docs/confidence.md), printed to model.txt.
   ConfidenceModel model;
-  model.bias = -8.77299704;
-  model.weights = {0.624006636, -0.563270365, -1.02675116, 0.564284185, 0.34835346,   6.14440914,
-                   -32.837699,  0.138769946,  4.29612008,  -4.81723138, 0.0284922407, 1.0637667};
+  model.bias = -8.69413264;
+  model.weights = {0.427495477, -0.557145862, -1.30867375, 0.532258559, 0.31380867,  6.4764896,
+                   -33.9713198, 0.11513037,   4.341399,    -4.80532227, 0.194270717, 0.201027759};
   return model;
 }
 

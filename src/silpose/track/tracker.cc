@@ -1,6 +1,7 @@
 #include "silpose/track/tracker.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -165,70 +166,89 @@ bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, Mirror
   return found;
 }
 
-double Tracker::ScorePoseGap(std::span<const float> radii, int object, int view, int shell,
-                             double apparent_radius, OtherPose* other) {
+double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) {
   *other = {};
-  // A pose counts as another one beyond this rotation (the confidence's notion of right).
-  // Another pose: farther than a posterior mode's radius (the filter's runner-up is too).
-  const double other_pose_deg = options_.filter.mode_radius_deg;
-  // Best-scoring views searched. A pose that scores as well as the reported view ranks among the
-  // first few; when all of them lie near the reported pose, the last one's score bounds the rest.
-  // (24 candidates cost 0.8 ms a frame on the 20-model database, 12 about 0.15 ms.)
-  constexpr int kCandidates = 12;
+  // Another pose: farther than a posterior mode's radius (as the filter's runner-up).
+  const double radius_deg = options_.filter.mode_radius_deg;
+  // Far views correlated exactly, the best ranked, and harmonics the ranking uses (as the
+  // filter's proposal ranks views: the low-harmonic part of the spectral bound).
+  constexpr size_t kFarCandidates = 8;
+  constexpr size_t kRankingHarmonics = 32;
   if (!twin_query_.has_variance || !spectra_->Usable(object, view, shell)) return std::nan("");
   const int length = spectra_->signature_length();
   const std::vector<Eigen::Vector3d>& directions = database_.sphere.directions;
-  const CorrelationPeak own = matcher_->Score(twin_query_, object, view, shell);
-  const Eigen::Matrix3d own_rotation =
-      CameraFromObjectRotation(directions[static_cast<size_t>(view)], own.RollDeg(length));
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
+  const Eigen::Vector3d& centre = directions[static_cast<size_t>(view)];
+  const auto score = [&](int v) {
+    return spectra_->Usable(object, v, shell) ? matcher_->Score(twin_query_, object, v, shell)
+                                              : CorrelationPeak{-1.0f, 0.0f};
+  };
+  // The best score near the reported pose: its view and the neighbours the grid may place better.
+  const CorrelationPeak own = score(view);
+  float near = own.score;
+  for (const uint32_t n : database_.sphere.Neighbours(view)) {
+    if (same.AngleDeg(directions[n], centre) <= radius_deg)
+      near = std::max(near, score(static_cast<int>(n)).score);
+  }
+  // The best far view: every view farther than the radius (modulo symmetry) ranked by the bound
+  // over the first harmonics, the best ranked correlated exactly.
+  const size_t half = twin_query_.coefficients.size();
+  const size_t harmonics = std::min(kRankingHarmonics, half);
+  std::array<float, kRankingHarmonics> query{};
+  for (size_t k = 0; k < harmonics; ++k) {
+    const float weight = (k == 0 || k == half - 1) ? 1.0f : 2.0f;
+    query[k] = weight * std::abs(twin_query_.coefficients[k]);
+  }
+  ranked_.clear();
+  for (int v = 0; v < database_.sphere.num_views(); ++v) {
+    if (!spectra_->Usable(object, v, shell) ||
+        same.AngleDeg(directions[static_cast<size_t>(v)], centre) <= radius_deg)
+      continue;
+    const std::span<const float> magnitudes = spectra_->Magnitudes(object, v, shell);
+    float bound = 0.0f;
+    for (size_t k = 0; k < std::min(harmonics, magnitudes.size()); ++k)
+      bound += query[k] * magnitudes[k];
+    ranked_.emplace_back(bound, v);
+  }
+  const size_t count = std::min(kFarCandidates, ranked_.size());
+  std::partial_sort(ranked_.begin(), ranked_.begin() + static_cast<std::ptrdiff_t>(count),
+                    ranked_.end(), std::greater<>());
+  float alternative = -1.0f;
+  for (size_t c = 0; c < count; ++c) {
+    const CorrelationPeak peak = score(ranked_[c].second);
+    if (peak.score > alternative) {
+      alternative = peak.score;
+      *other = {ranked_[c].second, peak.RollDeg(length)};
+    }
+  }
+  // The reported view at other rolls: the local maxima of its correlation, best first, beyond the
+  // radius of rotation modulo the object's symmetry.
   pose_gap_transforms_.resize(database_.models.size());
   std::vector<Rigid3>& transforms = pose_gap_transforms_[static_cast<size_t>(object)];
   if (transforms.empty()) {
-    // Sampled every 5 % of the diameter (a few degrees): fine enough for a 10 degree test.
+    // Sampled every 5 % of the diameter (a few degrees): fine enough for a 15 degree test.
     transforms = SymmetryTransforms(database_.models[static_cast<size_t>(object)].symmetry, 0.05);
   }
-  const auto other_pose = [&](int v, double roll_deg) {
-    return RotationErrorModuloSymmetryDeg(
-               CameraFromObjectRotation(directions[static_cast<size_t>(v)], roll_deg), own_rotation,
-               transforms) > other_pose_deg;
-  };
-  // The best score near the reported pose (its own view, or a neighbour the grid places better)
-  // against the best elsewhere: both are maxima over a region of poses.
-  float near = own.score;
-  float alternative = -1.0f;
-  const std::vector<MatchCandidate> top = matcher_->Match(
-      radii, {.top_k = kCandidates, .models = {object}, .apparent_radius = apparent_radius});
-  bool found = false;
-  for (const MatchCandidate& candidate : top) {
-    if (!other_pose(candidate.view, candidate.roll_deg)) {
-      near = std::max(near, candidate.score);
-    } else {
-      alternative = candidate.score;
-      *other = {candidate.view, candidate.roll_deg};
-      found = true;
-      break;
-    }
-  }
-  // Every candidate is near the reported pose: the views not returned score at most the last.
-  if (!found && static_cast<int>(top.size()) == kCandidates) alternative = top.back().score;
-  // The reported view at other rolls: the local maxima of its correlation, best first.
+  const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
   correlation_.resize(static_cast<size_t>(length));
   matcher_->correlator().Correlate(twin_query_, spectra_->Get(object, view, shell), correlation_);
-  std::vector<std::pair<float, int>> maxima;
+  maxima_.clear();
   for (int i = 0; i < length; ++i) {
     const float e = correlation_[static_cast<size_t>(i)];
     const float before = correlation_[static_cast<size_t>((i + length - 1) % length)];
     const float after = correlation_[static_cast<size_t>((i + 1) % length)];
-    if (e > alternative && e >= before && e > after) maxima.emplace_back(e, i);
+    if (e > alternative && e >= before && e > after) maxima_.emplace_back(e, i);
   }
-  std::sort(maxima.begin(), maxima.end(), std::greater<>());
-  for (const auto& [e, shift] : maxima) {
+  std::sort(maxima_.begin(), maxima_.end(), std::greater<>());
+  for (const auto& [e, shift] : maxima_) {
     CorrelationPeak peak;
     peak.score = e;
     peak.shift_bins = static_cast<float>(shift);
-    if (other_pose(view, peak.RollDeg(length))) {
+    const double roll_deg = peak.RollDeg(length);
+    if (RotationErrorModuloSymmetryDeg(CameraFromObjectRotation(centre, roll_deg), own_rotation,
+                                       transforms) > radius_deg) {
       alternative = e;
-      *other = {view, peak.RollDeg(length)};
+      *other = {view, roll_deg};
       break;
     }
   }
@@ -303,8 +323,7 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   const bool has_twin = usable && !radii.empty() && ScoreMirrorTwin(view, shell, tracked, &twin);
   OtherPose other;
   if (usable && !radii.empty() && view >= 0) {
-    features.pose_score_gap =
-        ScorePoseGap(radii, result.object, view, shell, apparent_radius_, &other);
+    features.pose_score_gap = ScorePoseGap(result.object, view, shell, &other);
   }
   if (has_twin) {
     features.twin_score_gap =
@@ -548,7 +567,6 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     }
   }
   if (tracked.segmentation.ok()) result.time_describe_ms = lap();
-  apparent_radius_ = apparent_radius;
 
   int view = -1;
   int shell = 0;

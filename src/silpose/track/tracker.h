@@ -203,17 +203,16 @@ class Tracker {
   /// twin_query_ must hold the frame's spectrum.
   bool ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin);
   /// ConfidenceFeatures::pose_score_gap of the reported database view `view` (shell `shell`) of
-  /// `object`, from the frame's spectrum in twin_query_: its best score against the object's
-  /// best-scoring views (a search of that object alone) and the local maxima of its own
-  /// correlation over the roll, the best of them farther than the filter's mode radius from the
-  /// reported pose (rotation modulo symmetry). That pose (view, roll) goes to `other` (view -1 when
-  /// none was found and the gap is a bound).
+  /// `object`, from the frame's spectrum in twin_query_: the best score (any roll) of the view and
+  /// its neighbours within the filter's mode radius, minus the best of the other poses looked at:
+  /// the 8 views farther than that radius (modulo symmetry) ranked best by the low-harmonic bound,
+  /// and the local maxima of the view's own correlation over the roll whose rotation is farther.
+  /// The best of those poses goes to `other` (view -1 when there is none).
   struct OtherPose {
     int view = -1;
     double roll_deg = 0.0;
   };
-  double ScorePoseGap(std::span<const float> radii, int object, int view, int shell,
-                      double apparent_radius, OtherPose* other);
+  double ScorePoseGap(int object, int view, int shell, OtherPose* other);
   /// The IoU and outline RMS (pixels) of the model at the frame's pose: the refinement's, or
   /// (refinement off) after one refinement step; unchanged (NaN) without a pose.
   void MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px);
@@ -227,8 +226,8 @@ class Tracker {
   /// Per model: its symmetry transforms, coarsely sampled (ScorePoseGap; made when first needed).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;
   std::vector<float> correlation_;
-  /// The frame silhouette's apparent size (Process), for Assess.
-  double apparent_radius_ = 0.0;
+  std::vector<std::pair<float, int>> ranked_;
+  std::vector<std::pair<float, int>> maxima_;
   int frame_ = 0;
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).
