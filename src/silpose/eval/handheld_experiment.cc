@@ -657,7 +657,8 @@ const char* HandheldSummaryHeader() {
 const char* HandheldFramesHeader() {
   return "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
          "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
-         "translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin";
+         "translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin,"
+         "rotation_error_symmetric_deg,view_error_symmetric";
 }
 
 const char* HandheldBinsHeader() {
@@ -700,7 +701,8 @@ void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperi
           << (f.right_object ? 1 : 0) << ',' << (f.has_pose ? 1 : 0) << ','
           << Cell(f.rotation_error_deg) << ',' << Cell(f.translation_error_percent) << ','
           << Cell(f.view_error) << ',' << Cell(f.roll_error_deg) << ',' << Cell(f.time_ms) << ','
-          << (f.wrong_twin ? 1 : 0) << '\n';
+          << (f.wrong_twin ? 1 : 0) << ',' << Cell(f.rotation_error_symmetric_deg) << ','
+          << Cell(f.view_error_symmetric) << '\n';
     }
   }
   CloseCsv(csv, path);
