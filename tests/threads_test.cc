@@ -1,9 +1,10 @@
 // What is shared between threads (README, "As a library"): one database read by several
 // trackers at once, one ViewSpectra (whose spectra are made on first use) shared by several
 // trackers, and one ViewSpectra searched by one ViewMatcher per thread; and what runs on several
-// threads inside: building a database. Each must give what it gives alone. These tests are also
-// run under ThreadSanitizer (the 'tsan' preset, scripts/run-sanitizers.sh), where the database
-// build's parallel loop runs on std::thread (util/parallel.h).
+// threads inside: building a database, writing a sequence and the eval experiments' tasks. Each
+// must give what it gives alone. These tests are also run under ThreadSanitizer (the 'tsan'
+// preset, scripts/run-sanitizers.sh), where the parallel loops run on std::thread
+// (util/parallel.h).
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -19,6 +20,8 @@
 #include <vector>
 
 #include "silpose/database/database_builder.h"
+#include "silpose/eval/confidence_experiment.h"
+#include "silpose/eval/handheld_experiment.h"
 #include "silpose/eval/self_match.h"
 #include "silpose/eval/tracking_experiment.h"
 #include "silpose/match/view_matcher.h"
@@ -286,6 +289,80 @@ TEST_F(SharedBetweenThreads, TheSelfMatchOnTwoThreadsGivesWhatItGivesOnOne) {
       EXPECT_EQ(two[m].failures[f].found_view, one[m].failures[f].found_view);
     }
   }
+}
+
+
+TEST_F(SharedBetweenThreads, TheHandheldExperimentOnTwoThreadsGivesWhatItGivesOnOne) {
+  // Its parallel loop: one task per sequence and mask quality, each with its own trackers.
+  HandheldExperimentOptions options;
+  options.models = {"hand"};
+  options.sequences_per_model = 1;
+  options.frames = 10;
+  options.orbit_distances_radii = {3.0};
+  options.orbit_frames = 8;
+  options.skip_frames = 2;
+  std::atomic<int> reported{0};
+  options.num_threads = 2;
+  const HandheldExperimentResult two =
+      RunHandheldExperiment(Database(), Meshes(), options, [&](int done) { reported += done; });
+  options.num_threads = 1;
+  const HandheldExperimentResult one = RunHandheldExperiment(Database(), Meshes(), options);
+  EXPECT_EQ(reported.load(), HandheldTaskCount(options, 1));
+  // (hand-held, orbit) x (perfect, threshold) x (filter, brute force)
+  ASSERT_EQ(two.runs.size(), 8u);
+  ASSERT_EQ(two.runs.size(), one.runs.size());
+  int right = 0;
+  for (size_t r = 0; r < one.runs.size(); ++r) {
+    EXPECT_EQ(two.runs[r].seed, one.runs[r].seed) << r;
+    EXPECT_EQ(two.runs[r].tracker, one.runs[r].tracker) << r;
+    ASSERT_EQ(two.runs[r].frames.size(), one.runs[r].frames.size()) << r;
+    for (size_t k = 0; k < one.runs[r].frames.size(); ++k) {
+      const HandheldFrame& a = two.runs[r].frames[k];
+      const HandheldFrame& b = one.runs[r].frames[k];
+      EXPECT_EQ(a.object, b.object) << r << " " << k;
+      EXPECT_EQ(a.has_pose, b.has_pose) << r << " " << k;
+      if (a.has_pose && b.has_pose) {
+        EXPECT_EQ(a.rotation_error_deg, b.rotation_error_deg) << r << " " << k;
+        EXPECT_EQ(a.translation_error_percent, b.translation_error_percent) << r << " " << k;
+      }
+      right += a.right_object;
+    }
+  }
+  EXPECT_GT(right, 0);
+}
+
+TEST_F(SharedBetweenThreads, TheConfidenceExperimentOnTwoThreadsGivesWhatItGivesOnOne) {
+  // Its parallel loop: one task per model, condition and sequence (the cow left out of the fit
+  // set and evaluated with the shipped model; the bunny, not in the database, as unknown).
+  ConfidenceExperimentOptions options;
+  options.fit = false;
+  options.eval_models = {"cow"};
+  options.sequences = 1;
+  options.frames = 8;
+  const std::vector<TriangleMesh> unknown = {LoadMesh(kModels / "bunny.obj")};
+  options.num_threads = 2;
+  const ConfidenceExperimentResult two =
+      RunConfidenceExperiment(Database(), Meshes(), unknown, options);
+  options.num_threads = 1;
+  const ConfidenceExperimentResult one =
+      RunConfidenceExperiment(Database(), Meshes(), unknown, options);
+  ASSERT_GE(two.runs.size(), 4u);  // clean, degraded, occluded for the cow; the bunny
+  ASSERT_EQ(two.runs.size(), one.runs.size());
+  int with_features = 0;
+  for (size_t r = 0; r < one.runs.size(); ++r) {
+    EXPECT_EQ(two.runs[r].model, one.runs[r].model) << r;
+    EXPECT_EQ(two.runs[r].seed, one.runs[r].seed) << r;
+    ASSERT_EQ(two.runs[r].frames.size(), one.runs[r].frames.size()) << r;
+    for (size_t k = 0; k < one.runs[r].frames.size(); ++k) {
+      const ConfidenceFrame& a = two.runs[r].frames[k];
+      const ConfidenceFrame& b = one.runs[r].frames[k];
+      EXPECT_EQ(a.state, b.state) << r << " " << k;
+      EXPECT_EQ(a.confidence, b.confidence) << r << " " << k;
+      EXPECT_EQ(a.correct, b.correct) << r << " " << k;
+      with_features += a.has_features;
+    }
+  }
+  EXPECT_GT(with_features, 0);
 }
 
 }  // namespace
