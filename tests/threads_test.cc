@@ -291,7 +291,6 @@ TEST_F(SharedBetweenThreads, TheSelfMatchOnTwoThreadsGivesWhatItGivesOnOne) {
   }
 }
 
-
 TEST_F(SharedBetweenThreads, TheHandheldExperimentOnTwoThreadsGivesWhatItGivesOnOne) {
   // Its parallel loop: one task per sequence and mask quality, each with its own trackers.
   HandheldExperimentOptions options;
