@@ -59,13 +59,16 @@ const BenchData& Data() {
 
 // Steady tracking: the filter runs along the orbit (wrapping around); each iteration is one frame,
 // signature extraction included. range(0): particles per object; range(1): 1 = adaptive;
-// range(2): 1 = guided reseeding (the default), 0 = uniform only.
+// range(2): 1 = guided reseeding (the default), 0 = uniform only; range(3): 1 = the particles keep
+// their pose histories (the library's default, needed by smoothing), 0 = none (`track` without
+// --smooth or --lag).
 void BM_FilterStep(benchmark::State& state) {
   const BenchData& data = Data();
   ParticleFilterOptions options;
   options.particles_per_object = static_cast<int>(state.range(0));
   options.adaptive = state.range(1) != 0;
   options.guided_reseeding = state.range(2) != 0;
+  options.keep_history = state.range(3) != 0;
   ParticleFilter filter(data.database.sphere, *data.spectra, options);
   // Converge first: the timed frames are the steady state, not the start.
   size_t frame = 0;
@@ -86,12 +89,14 @@ void BM_FilterStep(benchmark::State& state) {
   state.SetLabel(data.label);
 }
 BENCHMARK(BM_FilterStep)
-    ->ArgNames({"per_object", "adaptive", "guided"})
-    ->Args({60, 0, 1})
-    ->Args({60, 0, 0})
-    ->Args({60, 1, 1})
-    ->Args({20, 0, 1})
-    ->Args({100, 0, 1})
+    ->ArgNames({"per_object", "adaptive", "guided", "history"})
+    ->Args({60, 0, 1, 1})
+    ->Args({60, 0, 1, 0})
+    ->Args({60, 0, 0, 1})
+    ->Args({60, 1, 1, 1})
+    ->Args({60, 1, 1, 0})
+    ->Args({20, 0, 1, 1})
+    ->Args({100, 0, 1, 1})
     ->Unit(benchmark::kMillisecond);
 
 // The first frames, when the particles are still spread over every object's sphere (each needs a

@@ -1,7 +1,8 @@
 // Throughput of `silpose track` on a 640 x 480 video, single thread, decoding included:
 // the frames of an AVI file are read, segmented, described, filtered (20 objects x 60 particles
 // with the 20 reference models) and turned into a 6-DOF pose, as the command does per frame.
-//  - BM_TrackMaskVideo:  a mask video (lossless PNG frames), --segment mask
+//  - BM_TrackMaskVideo/0: a mask video (lossless PNG frames), --segment mask; /1: the same with
+//    the filter keeping its particle histories (as with --lag or --smooth)
 //  - BM_TrackColourVideo: a colour video (MJPEG, camera noise), --segment bgsub (MOG2 or KNN,
 //    learned from the empty scene's image)
 //  - BM_TrackStreams/N: N mask videos tracked at once on N threads, one Tracker each, sharing the
@@ -98,14 +99,28 @@ void RunVideo(benchmark::State& state, const std::string& video, const TrackerOp
       benchmark::Counter(static_cast<double>(measured) / static_cast<double>(state.iterations()));
 }
 
+// The options `silpose track` uses without --smooth or --lag: the filter keeps no particle
+// histories (nothing reads them).
+TrackerOptions TrackCommandOptions() {
+  TrackerOptions options;
+  options.filter.keep_history = false;
+  return options;
+}
+
+// Arg 1: the filter keeps 100 frames of particle histories (Tracker's default, what smoothing
+// needs) instead.
 void BM_TrackMaskVideo(benchmark::State& state) {
-  const TrackerOptions options;
+  TrackerOptions options = TrackCommandOptions();
+  if (state.range(0) != 0) {
+    options.filter.keep_history = true;
+    state.SetLabel("with particle histories");
+  }
   RunVideo(state, "masks.avi", options);
 }
-BENCHMARK(BM_TrackMaskVideo)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_TrackMaskVideo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_TrackColourVideo(benchmark::State& state) {
-  TrackerOptions options;
+  TrackerOptions options = TrackCommandOptions();
   options.segmentation.kind = SegmenterKind::kBackground;
   options.segmentation.background_method =
       state.range(0) == 0 ? BackgroundMethod::kMog2 : BackgroundMethod::kKnn;
@@ -123,7 +138,7 @@ void BM_TrackStreams(benchmark::State& state) {
   int64_t frames = 0;
   for (auto _ : state) {
     std::unique_ptr<FrameSource> source = OpenFrameSource((fixture.folder / "masks.avi").string());
-    Tracker tracker(*fixture.spectra, fixture.camera, TrackerOptions{});
+    Tracker tracker(*fixture.spectra, fixture.camera, TrackCommandOptions());
     for (cv::Mat frame; source->Read(&frame);) {
       benchmark::DoNotOptimize(tracker.Process(frame));
       ++frames;

@@ -139,6 +139,7 @@ class TrackerOptions:
     refine: bool
     canonical_poses: bool
     seed: int
+    keep_history: bool
     particles_per_object: int
     def __init__(self, **kwargs: object) -> None: ...
     def check(self) -> None: ...

@@ -195,6 +195,7 @@ TrackResult ToTrackResult(TrackedFrame&& tracked) {
 struct SmoothedTracker {
   SmoothedTracker(const ViewDatabase& database, const PinholeCamera& camera, TrackerOptions options,
                   int lag) {
+    options.filter.keep_history = true;
     int64_t& kept = options.filter.max_history_frames;
     if (lag == TrackSmoother::kOffline) {
       kept = 0;
@@ -834,6 +835,11 @@ void BindTrack(py::module_& m) {
           "seed", [](const TrackerOptions& o) { return o.filter.seed; },
           [](TrackerOptions& o, uint64_t v) { o.filter.seed = v; },
           "Seed of the particle filter (--seed).")
+      .def_property(
+          "keep_history", [](const TrackerOptions& o) { return o.filter.keep_history; },
+          [](TrackerOptions& o, bool v) { o.filter.keep_history = v; },
+          "Keep the particles' pose histories, which a Smoother reads (True); False tracks "
+          "the same poses with a cheaper filter step, as 'silpose track' without --smooth/--lag.")
       .def_property(
           "particles_per_object",
           [](const TrackerOptions& o) { return o.filter.particles_per_object; },

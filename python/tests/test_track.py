@@ -132,6 +132,12 @@ def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp
     sequence = silpose.SyntheticSequence([mesh], trajectory="walk", frames=16, seed=3)
     masks = [sequence.generate(i)["mask"] for i in range(16)]
     plain = silpose.Tracker(database, sequence.camera).process_many(masks)
+    # Without the particle histories the tracker reports the same poses.
+    lean_options = silpose.TrackerOptions(keep_history=False)
+    assert not lean_options.keep_history and silpose.TrackerOptions().keep_history
+    lean = silpose.Tracker(database, sequence.camera, lean_options).process_many(masks)
+    assert [(r.object_name, r.view_dir.tolist(), r.roll_deg) for r in lean] == \
+        [(r.object_name, r.view_dir.tolist(), r.roll_deg) for r in plain]
 
     smoother = silpose.Smoother(database, sequence.camera, lag=4)
     assert smoother.lag == 4
@@ -152,6 +158,10 @@ def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp
     offline = silpose.Smoother(database, sequence.camera, lag=silpose.Smoother.OFFLINE)
     assert all(offline.process(mask) == [] for mask in masks)
     assert [r.frame for r in offline.finish()] == list(range(16))
+
+    # A smoother keeps the histories it reads, whatever the options say.
+    kept = silpose.Smoother(database, sequence.camera, lean_options, lag=2)
+    assert [r.frame for mask in masks[:5] for r in kept.process(mask)] == [0, 1, 2]
 
     with pytest.raises(silpose.Error, match="brute force"):
         silpose.Smoother(database, sequence.camera, silpose.TrackerOptions(brute_force=True))

@@ -77,8 +77,9 @@ class Calibrator {
     if (!options_.estimate_k3) flags |= cv::CALIB_FIX_K3;
     // With CALIB_FIX_ASPECT_RATIO OpenCV keeps fx / fy of the initial matrix: start from square
     // pixels.
-    cv::Mat camera_matrix = cv::Mat::eye(3, 3, CV_64F);
-    cv::Mat distortion = cv::Mat::zeros(1, 5, CV_64F);
+    cv::Mat camera_matrix(3, 3, CV_64F, cv::Scalar(0));
+    camera_matrix.diag().setTo(cv::Scalar(1));
+    cv::Mat distortion(1, 5, CV_64F, cv::Scalar(0));
     std::vector<cv::Mat> rotations;
     std::vector<cv::Mat> translations;
     const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12);

@@ -393,6 +393,9 @@ void RunTrackJob(const TrackJob& arguments) {
     std::printf("background subtraction from %s\n", segment.background_image_path.c_str());
   }
   if (arguments.smooth && arguments.lag > 0) ThrowError("give --smooth or --lag, not both");
+  // The particle histories are read only by the smoothing: without it the filter keeps none
+  // (the same estimates, a cheaper step).
+  options.filter.keep_history = arguments.smooth || arguments.lag > 0;
   if (arguments.smooth || arguments.lag > 0) {
     if (options.brute_force) {
       ThrowError(arguments.smooth ? "--smooth" : "--lag",

@@ -280,8 +280,8 @@ inline SyntheticBopDataset WriteSyntheticBopDataset(const std::filesystem::path&
                    &depth[m]);
     }
     cv::Mat image(options.height_px, options.width_px, CV_8UC3, cv::Scalar(150, 150, 150));
-    std::vector<cv::Mat> visible = {cv::Mat::zeros(mask[0].size(), CV_8UC1),
-                                    cv::Mat::zeros(mask[0].size(), CV_8UC1)};
+    std::vector<cv::Mat> visible = {cv::Mat(mask[0].size(), CV_8UC1, cv::Scalar(0)),
+                                    cv::Mat(mask[0].size(), CV_8UC1, cv::Scalar(0))};
     for (int y = 0; y < image.rows; ++y) {
       for (int x = 0; x < image.cols; ++x) {
         int nearest = -1;

@@ -334,11 +334,13 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   estimate.effective_particles = sum_squares > 0.0 ? 1.0 / sum_squares : 0.0;
 
   // History: one node per particle for this frame.
-  for (Particle& p : particles_) {
-    p.history = std::make_shared<const HistoryNode>(
-        PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known, p.score,
-                  frame != nullptr && frame->has_variance},
-        std::move(p.history));
+  if (options_.keep_history) {
+    for (Particle& p : particles_) {
+      p.history = std::make_shared<const HistoryNode>(
+          PoseState{frame_, p.object, p.view, p.roll_known ? p.roll_deg : 0.0, p.roll_known,
+                    p.score, frame != nullptr && frame->has_variance},
+          std::move(p.history));
+    }
   }
   const Particle& chosen = particles_[best];
   estimate.object = chosen.object;
@@ -361,7 +363,8 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
     estimate.resampled = true;
   }
   estimate.num_particles_after = static_cast<int>(particles_.size());
-  if (options_.max_history_frames > 0 && (frame_ + 1) % options_.max_history_frames == 0) {
+  if (options_.keep_history && options_.max_history_frames > 0 &&
+      (frame_ + 1) % options_.max_history_frames == 0) {
     CutHistory(frame_ - options_.max_history_frames + 1);
   }
   ++frame_;

@@ -160,6 +160,10 @@
 // frames are dropped, so memory is bounded and histories hold between max_history_frames and
 // 2 * max_history_frames - 1 frames; use it for live video. Chains are destroyed iteratively
 // (HistoryNode's destructor), so a history of any length is freed without deep recursion.
+// keep_history = false keeps none (BestHistory, MostLikelyHistory and SmoothedState then find
+// nothing): one node made and one chain released per particle and frame is about a tenth of the
+// step (docs/PERFORMANCE.md), and nothing else in the filter reads the histories, so the
+// estimates are the same with and without them.
 //
 // Determinism and threads: the filter draws from its own std::mt19937_64 seeded with
 // ParticleFilterOptions::seed; the same database, options and frames give the same estimates (on
@@ -328,6 +332,10 @@ struct ParticleFilterOptions {
   /// direction, in (0, 90].
   double mode_radius_deg = 15.0;
 
+  /// Keep each particle's pose history (see the file comment), which smoothing reads
+  /// (BestHistory, MostLikelyHistory, SmoothedState; track/smoother.h). Off: no history, the
+  /// same estimates, a cheaper step.
+  bool keep_history = true;
   /// Keep about this many frames of history (see the file comment); 0 = all.
   int64_t max_history_frames = 0;
 

@@ -650,6 +650,59 @@ TEST_F(ParticleFilterTest, SameSeedGivesTheSameEstimates) {
   EXPECT_NE(run(43).second, first_views);
 }
 
+TEST_F(ParticleFilterTest, WithoutHistoryTheEstimatesAreTheSameAndNoHistoryIsKept) {
+  // A walk with a prediction-only frame and a jump to another object, so that proposals,
+  // resampling and the estimate rule all run; the histories must not change any of them, with a
+  // fixed or an adaptive particle count.
+  std::vector<TruePose> path = SmoothPath(91, 2, 14);
+  const std::vector<TruePose> other = SmoothPath(92, 0, 10);
+  path.insert(path.end(), other.begin(), other.end());
+  std::vector<std::vector<float>> signatures;
+  for (const TruePose& pose : path) signatures.push_back(Signature(pose));
+  for (const bool adaptive : {false, true}) {
+    SCOPED_TRACE(adaptive ? "adaptive" : "fixed count");
+    auto run = [&](bool keep_history) {
+      ParticleFilterOptions options;
+      options.seed = 7;
+      options.adaptive = adaptive;
+      options.keep_history = keep_history;
+      options.max_history_frames = 5;  // the cut runs too when history is kept
+      auto filter = std::make_unique<ParticleFilter>(Sphere(), *spectra_, options);
+      std::vector<FilterEstimate> estimates;
+      for (size_t t = 0; t < signatures.size(); ++t) {
+        estimates.push_back(t == 6 ? filter->Predict() : filter->Step(signatures[t]));
+      }
+      return std::pair{std::move(filter), estimates};
+    };
+    const auto [kept, with] = run(true);
+    const auto [none, without] = run(false);
+    ASSERT_EQ(with.size(), without.size());
+    for (size_t t = 0; t < with.size(); ++t) {
+      EXPECT_EQ(with[t].object, without[t].object) << "frame " << t;
+      EXPECT_EQ(with[t].view, without[t].view) << "frame " << t;
+      EXPECT_EQ(with[t].roll_deg, without[t].roll_deg) << "frame " << t;
+      EXPECT_EQ(with[t].score, without[t].score) << "frame " << t;
+      EXPECT_EQ(with[t].object_probability, without[t].object_probability) << "frame " << t;
+      EXPECT_EQ(with[t].num_particles_after, without[t].num_particles_after) << "frame " << t;
+    }
+    ASSERT_EQ(kept->particles().size(), none->particles().size());
+    for (size_t i = 0; i < kept->particles().size(); ++i) {
+      EXPECT_EQ(kept->particles()[i].view, none->particles()[i].view);
+      EXPECT_EQ(kept->particles()[i].weight, none->particles()[i].weight);
+      EXPECT_EQ(none->particles()[i].history, nullptr);
+    }
+    // The history was there to lose: kept, it reaches back to the last cut; without, nothing.
+    const int64_t recent = static_cast<int64_t>(with.size()) - 2;
+    EXPECT_GE(kept->BestHistory().size(), 5u);
+    EXPECT_GT(kept->CountLiveHistoryNodes(), 0);
+    EXPECT_TRUE(kept->SmoothedState(recent).has_value());
+    EXPECT_TRUE(none->BestHistory().empty());
+    EXPECT_TRUE(none->MostLikelyHistory().empty());
+    EXPECT_FALSE(none->SmoothedState(recent).has_value());
+    EXPECT_EQ(none->CountLiveHistoryNodes(), 0);
+  }
+}
+
 TEST_F(ParticleFilterTest, InvalidOptionsAndForeignSpectraAreErrors) {
   auto make = [](const ParticleFilterOptions& options) {
     ParticleFilter filter(Sphere(), *spectra_, options);

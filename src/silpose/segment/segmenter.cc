@@ -390,7 +390,8 @@ class PipelineSegmenter final : public Segmenter {
  private:
   SegmentationResult SegmentWorking(const cv::Mat& working, const cv::Size& full) {
     SegmentationResult result;
-    result.mask = cv::Mat::zeros(full, CV_8UC1);
+    // Not Mat::zeros: see shape/polar_signature.cc (trackers run on several threads at once).
+    result.mask = cv::Mat(full, CV_8UC1, cv::Scalar(0));
     result.status = model_->Foreground(working, full, &raw_, &result.message);
     if (result.status != SegmentationStatus::kOk) return result;
 
@@ -485,7 +486,8 @@ class PipelineSegmenter final : public Segmenter {
       box_full = box;
     } else {
       // Bilinear upscaling cut at half gives a smooth outline, not factor-sized steps.
-      chosen_ = cv::Mat::zeros(foreground_.size(), CV_8UC1);
+      chosen_.create(foreground_.size(), CV_8UC1);
+      chosen_.setTo(cv::Scalar(0));
       cv::Mat target = chosen_(region);
       cv::compare(labels_, chosen, target, cv::CMP_EQ);
       const cv::Size covered(std::min(full.width, chosen_.cols * factor_),

@@ -359,7 +359,8 @@ SignatureResult ExtractSignature(const cv::Mat& mask, const SignatureOptions& op
                      box.height + 2 * margin);
   // Constructed with its value (not Mat::zeros, a matrix expression: OpenCV makes the expressions'
   // shared operator object on first use without synchronisation, which ThreadSanitizer reports
-  // when the database build's threads describe their first views at once).
+  // when the database build's threads describe their first views at once). silpose's library
+  // code uses no Mat::zeros, ones or eye for this reason.
   cv::Mat filled(roi.size(), CV_8UC1, cv::Scalar(0));
   cv::drawContours(filled, contours, chosen_index, cv::Scalar(1), cv::FILLED, cv::LINE_8,
                    cv::noArray(), 0, cv::Point(-roi.x, -roi.y));

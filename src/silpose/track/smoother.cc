@@ -39,6 +39,8 @@ TrackSmoother::TrackSmoother(Tracker& tracker, int lag) : tracker_(tracker), lag
     ThrowError("the smoothing lag must be in [0, ", kMaxLag, "] frames (or offline), got ", lag);
   for (const ModelViews& model : tracker.database().models)
     equivalence_.emplace_back(model.symmetry);
+  if (!tracker.options().filter.keep_history)
+    ThrowError("smoothing reads the particle histories: the tracker keeps none (keep_history off)");
   const int64_t kept = tracker.options().filter.max_history_frames;
   if (lag == kOffline && kept != 0) {
     ThrowError("offline smoothing needs the whole history (max_history_frames 0), not ", kept,
@@ -125,7 +127,7 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
   TrackedFrame tracked = std::move(held.tracked);
   // The mask as the frame had it (zero outside the object's box).
   if (!held.size.empty()) {
-    cv::Mat mask = cv::Mat::zeros(held.size, CV_8UC1);
+    cv::Mat mask(held.size, CV_8UC1, cv::Scalar(0));
     if (!held.crop.empty()) {
       held.crop.copyTo(mask(held.box));
     } else if (!held.png.empty()) {

@@ -60,7 +60,8 @@ class TrackSmoother {
   /// `tracker` must track with the particle filter (not brute force), be fed only through this
   /// smoother from its first frame on, and outlive it. `lag` >= 0 frames, or kOffline. Throws
   /// silpose::Error for a brute-force tracker, a tracker that has processed frames already, a lag
-  /// below kOffline or above 100000, or a filter whose max_history_frames is too short for the lag.
+  /// below kOffline or above 100000, or a filter that keeps no history (keep_history) or whose
+  /// max_history_frames is too short for the lag.
   TrackSmoother(Tracker& tracker, int lag);
 
   /// Tracks the next frame (Tracker::Process). Returns the frames that are now final, oldest

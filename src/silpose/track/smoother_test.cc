@@ -163,6 +163,13 @@ TEST(TrackSmoother, RefusesWhatCannotBeSmoothed) {
   EXPECT_NO_THROW(TrackSmoother(tracker, 99));
   tracker.Process(Sequence().Generate(0).mask);
   EXPECT_THROW(TrackSmoother(tracker, 5), Error);
+
+  TrackerOptions no_history;
+  no_history.filter.keep_history = false;
+  no_history.filter.max_history_frames = 0;
+  Tracker untracked(Database(), Sequence().camera(), no_history);
+  EXPECT_THROW(TrackSmoother(untracked, 3), Error);
+  EXPECT_THROW(TrackSmoother(untracked, TrackSmoother::kOffline), Error);
 }
 
 TEST(TrackSmootherMirrorFlip, IsAJumpToTheMirrorTwinOfThePreviousView) {
