@@ -239,6 +239,7 @@ BopExperimentResult RunBopExperiment(const BopDataset& dataset, const ViewDataba
             std::max(filter.max_particles_per_object, filter.particles_per_object);
       }
       tracker_options.filter.seed = options.seed + static_cast<uint64_t>(instance_count);
+      tracker_options.filter.keep_history = false;  // as `track` without smoothing
       Tracker tracker(database, camera, tracker_options);
       ++instance_count;
       ++instances_per_object[instance.obj_id];

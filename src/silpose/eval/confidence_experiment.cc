@@ -61,6 +61,7 @@ ConfidenceRun RunTask(const ViewDatabase& database, const Task& task,
 
   TrackerOptions tracker_options;
   tracker_options.filter.seed = task.seed;
+  tracker_options.filter.keep_history = false;  // as `track` without smoothing
   tracker_options.state = state;
   Tracker tracker(database, sequence.camera(), tracker_options);
 

@@ -283,6 +283,8 @@ std::optional<int> HandheldTrackerLag(HandheldTracker tracker) {
 TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed) {
   TrackerOptions options;
   options.filter.seed = seed;
+  // As `track` runs: particle histories only for the trackers that smooth (the times compare).
+  options.filter.keep_history = HandheldTrackerLag(tracker).has_value();
   switch (tracker) {
     case HandheldTracker::kFilter:
       break;

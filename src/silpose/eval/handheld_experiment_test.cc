@@ -398,6 +398,10 @@ TEST(HandheldTrackerOptions, DescribeTheComparedTrackers) {
   EXPECT_EQ(paper.filter.motion_model, MotionModel::kNeighbour);
   EXPECT_FALSE(paper.filter.data_driven_proposal);
   EXPECT_TRUE(paper.refine);
+  // Histories only where the smoothing reads them, as `track` keeps them.
+  EXPECT_FALSE(HandheldTrackerOptions(HandheldTracker::kFilter, 7).filter.keep_history);
+  EXPECT_TRUE(HandheldTrackerOptions(HandheldTracker::kFilterLag10, 7).filter.keep_history);
+  EXPECT_TRUE(HandheldTrackerOptions(HandheldTracker::kFilterSmooth, 7).filter.keep_history);
 }
 
 }  // namespace

@@ -136,6 +136,7 @@ VideoExperimentResult RunVideoExperiment(const ViewDatabase& database,
     tracker_options.filter.max_particles_per_object =
         std::max(tracker_options.filter.max_particles_per_object, options.particles_per_object);
     tracker_options.filter.seed = seed;
+    tracker_options.filter.keep_history = false;  // as `track` without smoothing
     Tracker tracker(database, camera, tracker_options);
     TrackReport report(database);
     PosesCsvWriter poses(model_dir / "POSES.csv");
