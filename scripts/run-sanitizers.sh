@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The sanitizer stages of CI (scripts/run-tests.sh runs them after the release tests):
 #  1. asan:  clang -O2 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite
-#            except the tests labelled 'slow' (long-running experiments: they check accuracy, which
-#            the release run already does, and take minutes under the sanitizers);
+#            but the 'install' test (it installs the package and builds an outside project) and the
+#            Python tests (the module is not built: it would need the sanitizer runtime preloaded
+#            into Python);
 #  2. fuzz:  every libFuzzer target of that build for SILPOSE_CI_FUZZ_SECONDS (default 20) seconds
 #            from its seed corpus (scripts/fuzz.sh);
 #  3. tsan:  clang -O1 -g with ThreadSanitizer; only the tests that run several threads.
@@ -27,7 +28,7 @@ for s in "${stages[@]}"; do
   case "$s" in
     asan)
       stage "asan: configure and build" bash -c "cmake --preset asan >/dev/null && cmake --build --preset asan --parallel $jobs"
-      stage "asan: tests (not 'slow')" ctest --preset asan ;;
+      stage "asan: tests" ctest --preset asan ;;
     fuzz)
       stage "fuzz: ${SILPOSE_CI_FUZZ_SECONDS:-20} s per target" env SILPOSE_FUZZ_PRESET=asan SILPOSE_FUZZ_JOBS="$jobs" \
         bash scripts/fuzz.sh "${SILPOSE_CI_FUZZ_SECONDS:-20}" ;;

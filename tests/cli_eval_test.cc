@@ -139,6 +139,13 @@ TEST_F(CliEvalTest, TrackingRefusesBadArgumentsWithOneLine) {
     EXPECT_NE(run.err.find(expected), std::string::npos) << arguments << ": " << run.err;
     EXPECT_LE(Lines(run.err), 1) << arguments << ": " << run.err;
   }
+  // A model to fly that is not among the meshes is refused before anything is built or written.
+  const CommandResult teapot = Silpose("eval tracking --quick --flown bunny,teapot -o " + out);
+  EXPECT_NE(teapot.exit_code, 0);
+  EXPECT_NE(teapot.err.find("'teapot' is not in the database (anchor, bunny, cow, elephant, hand)"),
+            std::string::npos)
+      << teapot.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
   const CommandResult help = Silpose("eval tracking --help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_NE(help.out.find("--quick"), std::string::npos);

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -200,6 +201,16 @@ void RunTrackingEval(const TrackingArguments& arguments) {
   if (paths.empty()) paths = DefaultEvalModels();
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
+  // The database's models are named after the mesh files: a model to fly that is not among them
+  // is refused before the database is built (which takes seconds).
+  for (const std::string& name : options.flown_models) {
+    if (std::none_of(paths.begin(), paths.end(),
+                     [&](const std::filesystem::path& p) { return p.stem().string() == name; })) {
+      std::vector<std::string> known;
+      for (const auto& p : paths) known.push_back(p.stem().string());
+      ThrowError("model to fly '", name, "' is not in the database (", Joined(known), ")");
+    }
+  }
   const std::filesystem::path folder = CreateOutputFolder(arguments.output);
 
   const ViewDatabase database = EvaluationDatabase(paths, {.database_path = arguments.database,
