@@ -201,9 +201,11 @@ void RunTrackingEval(const TrackingArguments& arguments) {
   if (paths.empty()) paths = DefaultEvalModels();
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
-  // The database's models are named after the mesh files: a model to fly that is not among them
-  // is refused before the database is built (which takes seconds).
-  for (const std::string& name : options.flown_models) {
+  // A database built here names its models after the mesh files: a model to fly that is not among
+  // them is refused before the build (which takes seconds). A given database (-d) is checked
+  // against its own names once read.
+  for (const std::string& name : arguments.database.empty() ? options.flown_models
+                                                            : std::vector<std::string>{}) {
     if (std::none_of(paths.begin(), paths.end(),
                      [&](const std::filesystem::path& p) { return p.stem().string() == name; })) {
       std::vector<std::string> known;
