@@ -16,6 +16,14 @@
 
 namespace silpose::cli {
 
+/// The names a database built from `mesh_paths` gives its models: the files' stems, in order.
+inline std::vector<std::string> MeshModelNames(
+    const std::vector<std::filesystem::path>& mesh_paths) {
+  std::vector<std::string> names;
+  for (const auto& path : mesh_paths) names.push_back(path.stem().string());
+  return names;
+}
+
 /// A seed: a decimal whole number from 0 to 2^64 - 1, nothing else (no sign, no blanks, not
 /// empty). CLI11 alone would wrap "-1" and clamp "99999999999999999999" to 2^64 - 1 silently.
 inline CLI::Validator SeedNumber() {

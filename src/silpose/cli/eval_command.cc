@@ -204,13 +204,11 @@ void RunTrackingEval(const TrackingArguments& arguments) {
   // A database built here names its models after the mesh files: a model to fly that is not among
   // them is refused before the build (which takes seconds). A given database (-d) is checked
   // against its own names once read.
-  for (const std::string& name : arguments.database.empty() ? options.flown_models
-                                                            : std::vector<std::string>{}) {
-    if (std::none_of(paths.begin(), paths.end(),
-                     [&](const std::filesystem::path& p) { return p.stem().string() == name; })) {
-      std::vector<std::string> known;
-      for (const auto& p : paths) known.push_back(p.stem().string());
-      ThrowError("model to fly '", name, "' is not in the database (", Joined(known), ")");
+  if (arguments.database.empty()) {
+    const std::vector<std::string> known = MeshModelNames(paths);
+    for (const std::string& name : options.flown_models) {
+      if (std::find(known.begin(), known.end(), name) == known.end())
+        ThrowError("model to fly '", name, "' is not in the database (", Joined(known), ")");
     }
   }
   const std::filesystem::path folder = CreateOutputFolder(arguments.output);

@@ -211,13 +211,10 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
   if (options.skip_frames < 0) ThrowError("--skip must be >= 0");
   if (options.num_threads < 0) ThrowError("--threads must be >= 0");
   if (paths.empty()) paths = DefaultEvalModels();
+  const std::vector<std::string> known = MeshModelNames(paths);
   for (const std::string& name : evaluate) {
-    if (std::none_of(paths.begin(), paths.end(),
-                     [&](const std::filesystem::path& p) { return p.stem().string() == name; })) {
-      std::vector<std::string> known;
-      for (const auto& p : paths) known.push_back(p.stem().string());
+    if (std::find(known.begin(), known.end(), name) == known.end())
       ThrowError("--evaluate: no model '", name, "' among the database's (", Joined(known), ")");
-    }
   }
   std::string problem;
   if (!options.Check(&problem)) ThrowError(problem);
