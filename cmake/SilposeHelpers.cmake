@@ -32,6 +32,11 @@ function(silpose_library)
   target_compile_features(${target} PUBLIC cxx_std_20)
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME} POSITION_INDEPENDENT_CODE ON)
   silpose_warnings(${target})
+  if(SILPOSE_SANITIZE)
+    # Whatever links an instrumented library needs the sanitizer runtime: also programs built
+    # against an installed sanitizer build (silpose.pc says the same).
+    target_link_options(${target} INTERFACE -fsanitize=${SILPOSE_SANITIZERS})
+  endif()
   install(TARGETS ${target} EXPORT silposeTargets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
           LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
@@ -56,7 +61,33 @@ function(silpose_test)
     # its tests) runs once, not once per test as in a process per test.
     add_test(NAME ${ARG_NAME} COMMAND ${ARG_NAME})
     set_tests_properties(${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}")
+    if("slow" IN_LIST ARG_LABELS)
+      # Started first in a parallel run, so that the longest programs do not end it alone.
+      set_tests_properties(${ARG_NAME} PROPERTIES COST 1000)
+    endif()
   else()
     gtest_discover_tests(${ARG_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
   endif()
+endfunction()
+
+# silpose_sanitizer_runtime(out): the shared sanitizer runtime that the Python module of a sanitizer
+# build needs preloaded into the (uninstrumented) interpreter: the address sanitizer's, which holds
+# the undefined-behaviour sanitizer's handlers too.
+function(silpose_sanitizer_runtime out)
+  if(NOT SILPOSE_SANITIZERS MATCHES "address")
+    message(FATAL_ERROR "the Python module can be built with SILPOSE_SANITIZERS=address,undefined "
+                        "only, not '${SILPOSE_SANITIZERS}': configure with -DSILPOSE_BUILD_PYTHON=OFF")
+  endif()
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    set(_name "libclang_rt.asan-${CMAKE_SYSTEM_PROCESSOR}.so")
+  else()
+    set(_name "libasan.so")
+  endif()
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=${_name}
+                  OUTPUT_VARIABLE _path OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(NOT IS_ABSOLUTE "${_path}" OR NOT EXISTS "${_path}")
+    message(FATAL_ERROR "${CMAKE_CXX_COMPILER} does not name its shared sanitizer runtime "
+                        "${_name}, which the Python tests of a sanitizer build preload")
+  endif()
+  set(${out} "${_path}" PARENT_SCOPE)
 endfunction()

@@ -1,9 +1,8 @@
 #!/usr/bin/env bash
 # The sanitizer stages of CI (scripts/run-tests.sh runs them after the release tests):
-#  1. asan:  clang -O2 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite
-#            but the 'install' test (it installs the package and builds an outside project) and the
-#            Python tests (the module is not built: it would need the sanitizer runtime preloaded
-#            into Python);
+#  1. asan:  clang -O2 -g with AddressSanitizer + UndefinedBehaviorSanitizer; the whole test suite,
+#            the Python tests (the sanitizer runtime preloaded into python3) and the 'install' test
+#            included;
 #  2. fuzz:  every libFuzzer target of that build for SILPOSE_CI_FUZZ_SECONDS (default 20) seconds
 #            from its seed corpus (scripts/fuzz.sh);
 #  3. tsan:  clang -O1 -g with ThreadSanitizer; only the tests that run several threads.

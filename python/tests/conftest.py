@@ -25,8 +25,13 @@ def model(name):
     return os.path.join(MODELS, name + ".obj")
 
 
+# The environment of CLI runs. The CLI carries its own sanitizer runtime in a sanitizer build; the
+# one preloaded into Python there (python/CMakeLists.txt) would clash with it, so it is not passed on.
+CLI_ENV = {key: value for key, value in os.environ.items() if key != "LD_PRELOAD"}
+
+
 def run_cli(*args):
-    completed = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
+    completed = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, env=CLI_ENV)
     if completed.returncode != 0:
         raise AssertionError(f"silpose {' '.join(map(str, args))} failed:\n{completed.stderr}")
     return completed

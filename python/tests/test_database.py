@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import silpose
-from conftest import CLI, DB_OPTIONS, model, run_cli
+from conftest import CLI, CLI_ENV, DB_OPTIONS, model, run_cli
 
 
 def test_read_exposes_the_database(cli_database):
@@ -78,7 +78,7 @@ def test_merge_refuses_other_parameters_naming_the_file(tmp_path):
         silpose.merge_databases([tmp_path / "a.db", tmp_path / "b.db"])
     completed = subprocess.run(
         [CLI, "merge-db", tmp_path / "a.db", tmp_path / "b.db",
-         "-o", tmp_path / "c.db"], capture_output=True, text=True)
+         "-o", tmp_path / "c.db"], capture_output=True, text=True, env=CLI_ENV)
     assert completed.returncode != 0
     assert "b.db: built with other parameters" in completed.stderr
     assert completed.stderr.count("\n") == 1

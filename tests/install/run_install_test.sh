@@ -90,8 +90,14 @@ if [[ -n $module ]]; then
   # Where Debian's python3 looks for this relative folder under /usr/local or /usr.
   /usr/bin/python3 -c "import sys; sys.exit(0 if {'/usr/local/$relative', '/usr/$relative'} & set(sys.path) else 1)" ||
     fail "the Python package is installed in $relative, where Debian's python3 does not look"
-  PYTHONPATH=$package_dir /usr/bin/python3 -c "import silpose; print(silpose.__file__)" > "$work/py.out" ||
-    fail "import silpose from the installed package"
+  # A sanitizer build's module needs the sanitizer runtime preloaded into the interpreter
+  # (SILPOSE_SANITIZER_RUNTIME, set by tests/CMakeLists.txt for such builds).
+  preload=()
+  if [[ -n ${SILPOSE_SANITIZER_RUNTIME:-} ]]; then
+    preload=(env "LD_PRELOAD=$SILPOSE_SANITIZER_RUNTIME" "ASAN_OPTIONS=detect_leaks=0")
+  fi
+  PYTHONPATH=$package_dir "${preload[@]}" /usr/bin/python3 -c "import silpose; print(silpose.__file__)" \
+    > "$work/py.out" || fail "import silpose from the installed package"
   grep -q "^$prefix/" "$work/py.out" || fail "import silpose did not load the installed package: $(cat "$work/py.out")"
   echo "import silpose: $(cat "$work/py.out")"
 else
