@@ -5,7 +5,7 @@
 # found something (a crash, a sanitizer report, an exception other than silpose::Error, a hang of
 # more than 10 s or more than 2048 MB). Reproducers are kept in BUILD/fuzz-out/<target>/.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
-# Environment: SILPOSE_FUZZ_PRESET (default fuzz; CI passes asan, whose build already has them),
+# Environment: SILPOSE_FUZZ_PRESET (default fuzz),
 #              SILPOSE_FUZZ_JOBS (targets run at the same time, default 1),
 #              SILPOSE_FUZZ_NO_BUILD=1 (run the fuzzers already built).
 set -euo pipefail
