@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -151,9 +152,15 @@ void WriteFileAtomically(const std::filesystem::path& path, std::string_view byt
     ThrowError(name, ": ", problem);
   };
   ::fchmod(fd, 0644);
+  // At most 64 kB per write: Linux (6.16+, ext4) caches a write in page-cache folios as large as
+  // the write, up to 2 MB, and a process that later maps the file gets a whole folio mapped on
+  // its first touch of any page of it. A database written in one call then made a tracker that
+  // reads its scattered spectra resident in 2 MB steps (0.89 GB instead of 0.49 GB with 200
+  // objects) for as long as the file stayed cached.
+  constexpr size_t kMaxWrite = size_t{1} << 16;
   size_t done = 0;
   while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    const ssize_t n = ::write(fd, bytes.data() + done, std::min(kMaxWrite, bytes.size() - done));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) fail(std::string("write failed (") + std::strerror(errno) + ")");
     done += static_cast<size_t>(n);
