@@ -1,6 +1,7 @@
 #include "silpose/match/view_matcher.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -54,6 +55,8 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
   block_once_ = std::make_unique<std::once_flag[]>(blocks);
   magnitudes_once_ = std::make_unique<std::once_flag[]>(blocks);
   signatures_once_ = std::make_unique<std::once_flag[]>(blocks);
+  heads_.resize(blocks);
+  heads_once_ = std::make_unique<std::once_flag[]>(blocks);
   once_ = std::make_unique<std::once_flag[]>(total);
   usable_.assign(total, 0);
   apparent_.assign(total, 0.0f);
@@ -92,7 +95,8 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
       }
     }
   }
-  table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + 3 * blocks * sizeof(std::once_flag) +
+  table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + heads_.capacity() * sizeof(heads_[0]) +
+                 4 * blocks * sizeof(std::once_flag) +
                  total * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
                  stored_.capacity() + apparent_.capacity() * sizeof(float);
 }
@@ -113,6 +117,29 @@ void ViewSpectra::OpenBlock(int model, int shell) const {
       std::make_unique<SignatureSpectrum[]>(static_cast<size_t>(num_views_));
   spectrum_bytes_.fetch_add(static_cast<size_t>(num_views_) * sizeof(SignatureSpectrum),
                             std::memory_order_relaxed);
+}
+
+void ViewSpectra::MakeBoundHeads(int model, int shell) const {
+  const size_t views = static_cast<size_t>(num_views_);
+  auto heads = std::make_unique<float[]>(views * kBoundHeadStride);
+  for (size_t v = 0; v < views; ++v) {
+    float* head = heads.get() + v * kBoundHeadStride;
+    std::fill(head, head + kBoundHeadStride, 0.0f);
+    if (!Usable(model, static_cast<int>(v), shell)) continue;
+    const std::span<const float> magnitudes = Magnitudes(model, static_cast<int>(v), shell);
+    const size_t n = std::min(kBoundHead, magnitudes.size());
+    float energy = 0.0f;
+    for (size_t k = 0; k < n; ++k) {
+      head[k] = magnitudes[k];
+      energy += magnitudes[k] * magnitudes[k];
+    }
+    // Slack over the energy 1/2 for the rounding of the magnitudes. A non-finite magnitude
+    // makes the bound non-finite, which sends the search to the view's checked spectrum.
+    head[kBoundHead] = std::sqrt(std::max(0.0f, 0.5f + 1e-5f - energy));
+    if (!std::isfinite(energy)) head[kBoundHead] = energy;
+  }
+  spectrum_bytes_.fetch_add(views * kBoundHeadStride * sizeof(float), std::memory_order_relaxed);
+  heads_[Index(model, shell)] = std::move(heads);
 }
 
 void ViewSpectra::Compute(int model, int view, int shell) const {
@@ -308,38 +335,86 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
       }
     }
   } else {
-    std::vector<BoundedView>& bounds = bounds_;  // reused: no allocation per query
-    bounds.clear();
-    for (int m : models) {
-      for (int v = 0; v < spectra_.num_views(); ++v) {
-        const int shell = spectra_.ChooseShell(m, v, options.apparent_radius);
-        if (!spectra_.Usable(m, v, shell)) continue;
-        float bound = CorrelationUpperBound(query_.magnitudes, spectra_.Magnitudes(m, v, shell));
-        if (!(bound <= 1.5f)) {
-          // Impossible for a valid spectrum (bounds are at most 1 plus rounding): Get checks the
-          // view's values and names the corrupt file; if they pass, the bound is the true one's.
-          bound = CorrelationUpperBound(query_.magnitudes, spectra_.Get(m, v, shell).magnitudes);
-        }
-        bounds.push_back({bound, m, v, shell});
-      }
-    }
-    stats_.views_bounded = static_cast<int>(bounds.size());
-    std::make_heap(bounds.begin(), bounds.end());
+    // Best-first search on upper bounds of each view's score, in two stages. The exact bound
+    // (CorrelationUpperBound: the dot product of the magnitudes, over every kept harmonic) reads
+    // each view's 151 magnitudes; with hundreds of objects, reading them all made the search
+    // memory-bound. By Cauchy-Schwarz the harmonics from kBoundHead on contribute at most
+    // |q_tail| |d_tail|, and ViewSpectra::BoundHeads keeps each view's first magnitudes and a
+    // bound of |d_tail| in one small contiguous table: a cheap bound, never below the exact one.
+    // Every view gets this one; a view is given its exact bound when it comes to the top of the
+    // queue, and correlated when it comes there again. The top-k views by the cheap bound are
+    // correlated first, and no view whose bound is below their k-th score enters the queue.
+    constexpr size_t kHead = ViewSpectra::kBoundHead;
+    constexpr size_t kStride = ViewSpectra::kBoundHeadStride;
     // Rounding in the FFT can put an exact score a hair above its bound; the margin keeps the
     // pruning exact.
     constexpr float kMargin = 1e-5f;
+    const std::span<const float> q = query_.magnitudes.span();
+    std::array<float, kHead> q_head{};
+    std::copy_n(q.begin(), std::min(kHead, q.size()), q_head.begin());
+    float q_tail = 0.0f;
+    for (size_t k = kHead; k < q.size(); ++k) q_tail += q[k] * q[k];
+    q_tail = std::sqrt(q_tail);
+    // The exact bound, or the Get that names a corrupt view.
+    auto exact_bound = [&](int m, int v, int shell) {
+      const float bound = CorrelationUpperBound(q, spectra_.Magnitudes(m, v, shell));
+      // Impossible for a valid spectrum (bounds are at most 1 plus rounding): Get checks the
+      // view's values and names the corrupt file; if they pass, the bound is the true one's.
+      return bound <= 1.5f ? bound : CorrelationUpperBound(q, spectra_.Get(m, v, shell).magnitudes);
+    };
+    std::vector<BoundedView>& bounds = bounds_;  // reused: no allocation per query
+    bounds.clear();
+    const bool one_shell = spectra_.num_shells() == 1;
+    for (int m : models) {
+      const float* shell_0 = one_shell ? spectra_.BoundHeads(m, 0).data() : nullptr;
+      for (int v = 0; v < spectra_.num_views(); ++v) {
+        const int shell = one_shell ? 0 : spectra_.ChooseShell(m, v, options.apparent_radius);
+        if (!spectra_.Usable(m, v, shell)) continue;
+        const float* head = (one_shell ? shell_0 : spectra_.BoundHeads(m, shell).data()) +
+                            static_cast<size_t>(v) * kStride;
+        float dot = 0.0f;
+        for (size_t k = 0; k < kHead; ++k) dot += q_head[k] * head[k];
+        const float bound = dot + q_tail * head[kHead];
+        if (bound <= 1.5f) {
+          bounds.push_back({bound, m, v, shell, false});
+        } else {
+          bounds.push_back({exact_bound(m, v, shell), m, v, shell, true});
+        }
+      }
+    }
+    stats_.views_bounded = static_cast<int>(bounds.size());
+    auto correlate = [&](const BoundedView& view) {
+      offer(make_candidate(view.model, view.view, view.shell,
+                           correlator_.Peak(query_, spectra_.Get(view.model, view.view, view.shell))));
+      ++stats_.views_correlated;
+    };
+    const auto full_list = [&] { return static_cast<int>(best.size()) == options.top_k; };
+    const auto seeds = static_cast<std::ptrdiff_t>(
+        std::min(bounds.size(), static_cast<size_t>(options.top_k)));
+    if (seeds > 0) {
+      std::nth_element(bounds.begin(), bounds.begin() + (seeds - 1), bounds.end(),
+                       [](const BoundedView& a, const BoundedView& b) { return b < a; });
+      for (std::ptrdiff_t i = 0; i < seeds; ++i) correlate(bounds[static_cast<size_t>(i)]);
+      bounds.erase(bounds.begin(), bounds.begin() + seeds);
+      if (full_list()) {
+        const float floor = best.top().score;
+        std::erase_if(bounds, [&](const BoundedView& b) { return floor >= b.bound + kMargin; });
+      }
+    }
+    std::make_heap(bounds.begin(), bounds.end());
     while (!bounds.empty()) {
       const BoundedView next = bounds.front();
-      if (static_cast<int>(best.size()) == options.top_k &&
-          best.top().score >= next.bound + kMargin) {
-        break;
-      }
+      if (full_list() && best.top().score >= next.bound + kMargin) break;
       std::pop_heap(bounds.begin(), bounds.end());
       bounds.pop_back();
-      offer(make_candidate(
-          next.model, next.view, next.shell,
-          correlator_.Peak(query_, spectra_.Get(next.model, next.view, next.shell))));
-      ++stats_.views_correlated;
+      if (next.full) {
+        correlate(next);
+        continue;
+      }
+      const float bound = exact_bound(next.model, next.view, next.shell);
+      if (full_list() && best.top().score >= bound + kMargin) continue;
+      bounds.push_back({bound, next.model, next.view, next.shell, true});
+      std::push_heap(bounds.begin(), bounds.end());
     }
   }
 

@@ -102,6 +102,21 @@ class ViewSpectra {
     }
     return Get(model, view, shell).magnitudes.span();
   }
+  /// Harmonics in a bound head (BoundHeads).
+  static constexpr size_t kBoundHead = 15;
+  /// Floats per view in BoundHeads.
+  static constexpr size_t kBoundHeadStride = kBoundHead + 1;
+  /// For every view of model `model` in shell `shell`, kBoundHeadStride floats: its first
+  /// kBoundHead magnitudes (Magnitudes), then sqrt(1/2 - their squared sum), an upper bound of
+  /// the norm of the other magnitudes (a view's magnitudes have energy 1/2: CircularCorrelator);
+  /// all 0 for a view that is not Usable. Made from Magnitudes when first asked for (thread-safe),
+  /// so that a search over every view can bound them all from one small contiguous table
+  /// instead of reading each view's spectrum.
+  std::span<const float> BoundHeads(int model, int shell = 0) const {
+    const size_t block = Index(model, shell);
+    std::call_once(heads_once_[block], [&] { MakeBoundHeads(model, shell); });
+    return {heads_[block].get(), static_cast<size_t>(num_views_) * kBoundHeadStride};
+  }
   /// For a database read with ViewChecks::kOnFirstUse: checks the signatures of model `model` in
   /// shell `shell` against their checksum (ViewDatabase::CheckBlock) and each view's signature
   /// values (ViewDatabase::CheckViewSignature), once. When the spectra come from the file the
@@ -153,6 +168,7 @@ class ViewSpectra {
   }
   void Compute(int model, int view, int shell) const;
   void OpenBlock(int model, int shell) const;
+  void MakeBoundHeads(int model, int shell) const;
 
   const ViewDatabase& database_;
   CorrelationOptions options_;
@@ -166,6 +182,9 @@ class ViewSpectra {
   /// Per (model, shell): its stored magnitudes, its signatures checked (ViewChecks::kOnFirstUse).
   std::unique_ptr<std::once_flag[]> magnitudes_once_;
   std::unique_ptr<std::once_flag[]> signatures_once_;
+  /// Per (model, shell): BoundHeads, made on first use.
+  mutable std::vector<std::unique_ptr<float[]>> heads_;
+  std::unique_ptr<std::once_flag[]> heads_once_;
   std::unique_ptr<std::once_flag[]> once_;
   std::vector<uint8_t> usable_;
   /// Per model: whether its spectra are the database's stored ones.
@@ -208,6 +227,9 @@ class ViewMatcher {
     int model;
     int view;
     int shell;
+    /// Whether `bound` is CorrelationUpperBound over every harmonic (else the cheaper, looser
+    /// bound from the first harmonics and the rest's energy).
+    bool full;
     bool operator<(const BoundedView& other) const { return bound < other.bound; }
   };
 
