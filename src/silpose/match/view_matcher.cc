@@ -374,7 +374,7 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
                             static_cast<size_t>(v) * kStride;
         float dot = 0.0f;
         for (size_t k = 0; k < kHead; ++k) dot += q_head[k] * head[k];
-        const float bound = dot + q_tail * head[kHead];
+        const float bound = dot + q_tail * head[kHead] + ViewSpectra::kBoundHeadSlack;
         if (bound <= 1.5f) {
           bounds.push_back({bound, m, v, shell, false});
         } else {

@@ -106,6 +106,9 @@ class ViewSpectra {
   static constexpr size_t kBoundHead = 15;
   /// Floats per view in BoundHeads.
   static constexpr size_t kBoundHeadStride = kBoundHead + 1;
+  /// Added to a bound from BoundHeads: the float sums of it and of the exact bound round
+  /// differently (by up to about 1e-6 over 151 harmonics).
+  static constexpr float kBoundHeadSlack = 1e-5f;
   /// For every view of model `model` in shell `shell`, kBoundHeadStride floats: its first
   /// kBoundHead magnitudes (Magnitudes), then sqrt(1/2 - their squared sum), an upper bound of
   /// the norm of the other magnitudes (a view's magnitudes have energy 1/2: CircularCorrelator);
