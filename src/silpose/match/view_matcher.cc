@@ -96,9 +96,9 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
     }
   }
   table_bytes_ = blocks_.capacity() * sizeof(blocks_[0]) + heads_.capacity() * sizeof(heads_[0]) +
-                 4 * blocks * sizeof(std::once_flag) +
-                 total * sizeof(std::once_flag) + usable_.capacity() * sizeof(uint8_t) +
-                 stored_.capacity() + apparent_.capacity() * sizeof(float);
+                 4 * blocks * sizeof(std::once_flag) + total * sizeof(std::once_flag) +
+                 usable_.capacity() * sizeof(uint8_t) + stored_.capacity() +
+                 apparent_.capacity() * sizeof(float);
 }
 
 void ViewSpectra::OpenBlock(int model, int shell) const {
@@ -384,13 +384,14 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
     }
     stats_.views_bounded = static_cast<int>(bounds.size());
     auto correlate = [&](const BoundedView& view) {
-      offer(make_candidate(view.model, view.view, view.shell,
-                           correlator_.Peak(query_, spectra_.Get(view.model, view.view, view.shell))));
+      offer(make_candidate(
+          view.model, view.view, view.shell,
+          correlator_.Peak(query_, spectra_.Get(view.model, view.view, view.shell))));
       ++stats_.views_correlated;
     };
     const auto full_list = [&] { return static_cast<int>(best.size()) == options.top_k; };
-    const auto seeds = static_cast<std::ptrdiff_t>(
-        std::min(bounds.size(), static_cast<size_t>(options.top_k)));
+    const auto seeds =
+        static_cast<std::ptrdiff_t>(std::min(bounds.size(), static_cast<size_t>(options.top_k)));
     if (seeds > 0) {
       std::nth_element(bounds.begin(), bounds.begin() + (seeds - 1), bounds.end(),
                        [](const BoundedView& a, const BoundedView& b) { return b < a; });

@@ -145,8 +145,8 @@ class ViewSpectra {
   /// Spectra made so far (views whose silhouette was described; see Get).
   size_t num_computed() const { return num_computed_.load(std::memory_order_relaxed); }
   /// Bytes this object holds: its tables (sized at construction), the spectrum slots of every
-  /// (model, shell) used so far and the spectra made so far (stored spectra lent by the database
-  /// are not counted: they are the mapped file's).
+  /// (model, shell) used so far, the spectra and BoundHeads tables made so far (stored spectra
+  /// lent by the database are not counted: they are the mapped file's).
   size_t MemoryBytes() const {
     return table_bytes_ + spectrum_bytes_.load(std::memory_order_relaxed);
   }
