@@ -128,15 +128,14 @@ void ViewSpectra::MakeBoundHeads(int model, int shell) const {
     if (!Usable(model, static_cast<int>(v), shell)) continue;
     const std::span<const float> magnitudes = Magnitudes(model, static_cast<int>(v), shell);
     const size_t n = std::min(kBoundHead, magnitudes.size());
-    float energy = 0.0f;
-    for (size_t k = 0; k < n; ++k) {
-      head[k] = magnitudes[k];
-      energy += magnitudes[k] * magnitudes[k];
+    std::copy_n(magnitudes.begin(), n, head);
+    // The norm of the other magnitudes (non-finite for a corrupt view, which sends the search to
+    // its checked spectrum).
+    double tail = 0.0;
+    for (size_t k = n; k < magnitudes.size(); ++k) {
+      tail += static_cast<double>(magnitudes[k]) * static_cast<double>(magnitudes[k]);
     }
-    // Slack over the energy 1/2 for the rounding of the magnitudes. A non-finite magnitude
-    // makes the bound non-finite, which sends the search to the view's checked spectrum.
-    head[kBoundHead] = std::sqrt(std::max(0.0f, 0.5f + 1e-5f - energy));
-    if (!std::isfinite(energy)) head[kBoundHead] = energy;
+    head[kBoundHead] = static_cast<float>(std::sqrt(tail));
   }
   spectrum_bytes_.fetch_add(views * kBoundHeadStride * sizeof(float), std::memory_order_relaxed);
   heads_[Index(model, shell)] = std::move(heads);
@@ -339,8 +338,8 @@ std::vector<MatchCandidate> ViewMatcher::Match(std::span<const float> radii,
     // (CorrelationUpperBound: the dot product of the magnitudes, over every kept harmonic) reads
     // each view's 151 magnitudes; with hundreds of objects, reading them all made the search
     // memory-bound. By Cauchy-Schwarz the harmonics from kBoundHead on contribute at most
-    // |q_tail| |d_tail|, and ViewSpectra::BoundHeads keeps each view's first magnitudes and a
-    // bound of |d_tail| in one small contiguous table: a cheap bound, never below the exact one.
+    // |q_tail| |d_tail|, and ViewSpectra::BoundHeads keeps each view's first magnitudes and
+    // |d_tail| in one small contiguous table: a cheap bound, never below the exact one.
     // Every view gets this one; a view is given its exact bound when it comes to the top of the
     // queue, and correlated when it comes there again. The top-k views by the cheap bound are
     // correlated first, and no view whose bound is below their k-th score enters the queue.

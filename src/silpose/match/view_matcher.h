@@ -110,9 +110,8 @@ class ViewSpectra {
   /// differently (by up to about 1e-6 over 151 harmonics).
   static constexpr float kBoundHeadSlack = 1e-5f;
   /// For every view of model `model` in shell `shell`, kBoundHeadStride floats: its first
-  /// kBoundHead magnitudes (Magnitudes), then sqrt(1/2 - their squared sum), an upper bound of
-  /// the norm of the other magnitudes (a view's magnitudes have energy 1/2: CircularCorrelator);
-  /// all 0 for a view that is not Usable. Made from Magnitudes when first asked for (thread-safe),
+  /// kBoundHead magnitudes (Magnitudes), then the norm of the others; all 0 for a view that is
+  /// not Usable. Made from Magnitudes when first asked for (thread-safe),
   /// so that a search over every view can bound them all from one small contiguous table
   /// instead of reading each view's spectrum.
   std::span<const float> BoundHeads(int model, int shell = 0) const {

@@ -108,27 +108,32 @@ TEST(ViewMatcher, FindsTheViewAndRollOfAShiftedDatabaseSignature) {
 
 TEST(ViewMatcher, PrunedSearchReturnsExactlyTheExhaustiveResult) {
   const SyntheticDatabase synthetic = MakeDatabase(4, 300, 256, 3);
-  const ViewSpectra spectra(synthetic.database);
-  ViewMatcher matcher(spectra);
-  std::mt19937 rng(4);
-  int pruned_views = 0;
-  for (int trial = 0; trial < 30; ++trial) {
-    // Unrelated random queries: the hard case for pruning.
-    const std::vector<float> query = RandomSignature(rng, 256);
-    for (int k : {1, 5, 20}) {
-      const auto exhaustive = matcher.Match(query, {.top_k = k, .exhaustive = true});
-      EXPECT_EQ(matcher.last_stats().views_correlated, 1200);
-      const auto pruned = matcher.Match(query, {.top_k = k});
-      pruned_views += matcher.last_stats().views_correlated;
-      ASSERT_EQ(pruned.size(), exhaustive.size());
-      for (size_t i = 0; i < pruned.size(); ++i) {
-        EXPECT_EQ(pruned[i].model, exhaustive[i].model) << "trial " << trial << " rank " << i;
-        EXPECT_EQ(pruned[i].view, exhaustive[i].view) << "trial " << trial << " rank " << i;
-        EXPECT_EQ(pruned[i].score, exhaustive[i].score);
+  // The default smoothing, and none (every harmonic in the bounds).
+  for (const double smoothing_deg : {CorrelationOptions{}.smoothing_deg, 0.0}) {
+    SCOPED_TRACE(smoothing_deg);
+    const ViewSpectra spectra(synthetic.database,
+                              CorrelationOptions{.smoothing_deg = smoothing_deg});
+    ViewMatcher matcher(spectra);
+    std::mt19937 rng(4);
+    int pruned_views = 0;
+    for (int trial = 0; trial < 30; ++trial) {
+      // Unrelated random queries: the hard case for pruning.
+      const std::vector<float> query = RandomSignature(rng, 256);
+      for (int k : {1, 5, 20}) {
+        const auto exhaustive = matcher.Match(query, {.top_k = k, .exhaustive = true});
+        EXPECT_EQ(matcher.last_stats().views_correlated, 1200);
+        const auto pruned = matcher.Match(query, {.top_k = k});
+        pruned_views += matcher.last_stats().views_correlated;
+        ASSERT_EQ(pruned.size(), exhaustive.size());
+        for (size_t i = 0; i < pruned.size(); ++i) {
+          EXPECT_EQ(pruned[i].model, exhaustive[i].model) << "trial " << trial << " rank " << i;
+          EXPECT_EQ(pruned[i].view, exhaustive[i].view) << "trial " << trial << " rank " << i;
+          EXPECT_EQ(pruned[i].score, exhaustive[i].score);
+        }
       }
     }
+    EXPECT_LT(pruned_views, 30 * 3 * 1200) << "pruning never skipped a view";
   }
-  EXPECT_LT(pruned_views, 30 * 3 * 1200) << "pruning never skipped a view";
 }
 
 TEST(ViewMatcher, PrunedSearchIsExactOnTheDefaultBandLimitedPath) {
@@ -160,40 +165,46 @@ TEST(ViewMatcher, BoundHeadsGiveABoundNeverBelowTheExactOneAndCloseToIt) {
   // The search's cheap bound (first kBoundHead magnitudes plus the rest's norm bound) must never
   // be below the exact bound, or the pruned search could skip the best view.
   const SyntheticDatabase synthetic = MakeDatabase(3, 200, 1000, 12);
-  const ViewSpectra spectra(synthetic.database);
-  CircularCorrelator correlator(1000, spectra.options());
-  std::mt19937 rng(13);
   constexpr size_t kHead = ViewSpectra::kBoundHead;
-  double total_gap = 0.0;
-  int bounded = 0;
-  for (int trial = 0; trial < 10; ++trial) {
-    const SignatureSpectrum query = correlator.Transform(RandomSignature(rng, 1000), true);
-    const std::span<const float> q = query.magnitudes.span();
-    float q_tail = 0.0f;
-    for (size_t k = kHead; k < q.size(); ++k) q_tail += q[k] * q[k];
-    q_tail = std::sqrt(q_tail);
-    for (int m = 0; m < 3; ++m) {
-      const std::span<const float> heads = spectra.BoundHeads(m);
-      ASSERT_EQ(heads.size(), 200 * ViewSpectra::kBoundHeadStride);
-      for (int v = 0; v < 200; ++v) {
-        const float* head = heads.data() + static_cast<size_t>(v) * ViewSpectra::kBoundHeadStride;
-        if (!spectra.Usable(m, v)) {
-          EXPECT_TRUE(std::all_of(head, head + ViewSpectra::kBoundHeadStride,
-                                  [](float x) { return x == 0.0f; }));
-          continue;
+  // The default smoothing, and none (the paper's plain correlation: every harmonic kept).
+  for (const double smoothing_deg : {CorrelationOptions{}.smoothing_deg, 0.0}) {
+    SCOPED_TRACE(smoothing_deg);
+    CorrelationOptions options;
+    options.smoothing_deg = smoothing_deg;
+    const ViewSpectra spectra(synthetic.database, options);
+    CircularCorrelator correlator(1000, spectra.options());
+    std::mt19937 rng(13);
+    double total_gap = 0.0;
+    int bounded = 0;
+    for (int trial = 0; trial < 10; ++trial) {
+      const SignatureSpectrum query = correlator.Transform(RandomSignature(rng, 1000), true);
+      const std::span<const float> q = query.magnitudes.span();
+      float q_tail = 0.0f;
+      for (size_t k = kHead; k < q.size(); ++k) q_tail += q[k] * q[k];
+      q_tail = std::sqrt(q_tail);
+      for (int m = 0; m < 3; ++m) {
+        const std::span<const float> heads = spectra.BoundHeads(m);
+        ASSERT_EQ(heads.size(), 200 * ViewSpectra::kBoundHeadStride);
+        for (int v = 0; v < 200; ++v) {
+          const float* head = heads.data() + static_cast<size_t>(v) * ViewSpectra::kBoundHeadStride;
+          if (!spectra.Usable(m, v)) {
+            EXPECT_TRUE(std::all_of(head, head + ViewSpectra::kBoundHeadStride,
+                                    [](float x) { return x == 0.0f; }));
+            continue;
+          }
+          float cheap = q_tail * head[kHead] + ViewSpectra::kBoundHeadSlack;
+          for (size_t k = 0; k < kHead; ++k) cheap += q[k] * head[k];
+          const float exact = CorrelationUpperBound(q, spectra.Magnitudes(m, v));
+          EXPECT_GE(cheap, exact) << "model " << m << " view " << v;
+          total_gap += cheap - exact;
+          ++bounded;
         }
-        float cheap = q_tail * head[kHead] + ViewSpectra::kBoundHeadSlack;
-        for (size_t k = 0; k < kHead; ++k) cheap += q[k] * head[k];
-        const float exact = CorrelationUpperBound(q, spectra.Magnitudes(m, v));
-        EXPECT_GE(cheap, exact) << "model " << m << " view " << v;
-        total_gap += cheap - exact;
-        ++bounded;
       }
     }
+    ASSERT_GT(bounded, 0);
+    // Loose enough to be cheap, tight enough to prune: on average within 0.2 of the exact bound.
+    EXPECT_LT(total_gap / bounded, 0.2);
   }
-  ASSERT_GT(bounded, 0);
-  // Loose enough to be cheap, tight enough to prune: on average within 0.2 of the exact bound.
-  EXPECT_LT(total_gap / bounded, 0.2);
 }
 
 TEST(ViewMatcher, ADatabaseWithoutUsableViewsGivesNoCandidates) {
