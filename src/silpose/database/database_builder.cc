@@ -84,6 +84,9 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
   // mesh's centre and radius each time.
   std::vector<PinholeCamera> cameras;
   for (int s = 0; s < num_shells; ++s) cameras.push_back(ViewCamera(parameters.ShellRender(s)));
+  // Every shell's camera is more than one radius from the centre, outside the bounding sphere:
+  // a closed mesh's silhouette needs only the triangles facing the camera.
+  const FaceCulling culling = IsClosedSurface(mesh) ? FaceCulling::kBackFaces : FaceCulling::kNone;
   auto describe = [&](int first, int last) {
     cv::Mat mask;  // reused by the chunk's views
     for (int index = first; index != last; ++index) {
@@ -94,7 +97,7 @@ void DescribeModelViews(const TriangleMesh& mesh, const ViewSphere& sphere,
       RenderSilhouette(
           mesh, cameras[static_cast<size_t>(shell)],
           CameraFromObjectAtView(sphere.directions[static_cast<size_t>(v)], 0.0, distance, centre),
-          &mask);
+          &mask, culling);
       const SignatureResult result = ExtractSignature(mask, parameters.signature);
       ViewRecord& record = model->views[static_cast<size_t>(index)];
       record.status = result.status;

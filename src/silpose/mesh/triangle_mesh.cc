@@ -729,6 +729,50 @@ double TriangleMesh::Radius() const {
   return std::sqrt(squared);
 }
 
+bool IsClosedSurface(const TriangleMesh& mesh) {
+  if (mesh.triangles.empty()) return false;
+  // Vertices by position: the index of the first vertex at each position (bit pattern of the
+  // coordinates, with -0 taken as 0).
+  struct PositionHash {
+    size_t operator()(const std::array<uint32_t, 3>& key) const {
+      uint64_t hash = 0x9E3779B97F4A7C15ull;
+      for (uint32_t word : key) hash = (hash ^ word) * 0x100000001B3ull;
+      return static_cast<size_t>(hash ^ (hash >> 29));
+    }
+  };
+  std::unordered_map<std::array<uint32_t, 3>, uint32_t, PositionHash> first_at;
+  first_at.reserve(mesh.vertices.size());
+  std::vector<uint32_t> canonical(mesh.vertices.size());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    std::array<uint32_t, 3> key{};
+    for (int k = 0; k < 3; ++k) {
+      const float value = mesh.vertices[i][k] == 0.0f ? 0.0f : mesh.vertices[i][k];
+      key[static_cast<size_t>(k)] = std::bit_cast<uint32_t>(value);
+    }
+    canonical[i] = first_at.try_emplace(key, static_cast<uint32_t>(i)).first->second;
+  }
+  // Per undirected edge, traversals low -> high minus high -> low.
+  std::unordered_map<uint64_t, int64_t> balance;
+  balance.reserve(3 * mesh.triangles.size());
+  for (const std::array<uint32_t, 3>& triangle : mesh.triangles) {
+    std::array<uint32_t, 3> v{};
+    for (size_t k = 0; k < 3; ++k) {
+      if (triangle[k] >= mesh.vertices.size()) return false;
+      v[k] = canonical[triangle[k]];
+    }
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;
+    for (size_t k = 0; k < 3; ++k) {
+      const uint32_t from = v[k];
+      const uint32_t to = v[(k + 1) % 3];
+      const uint64_t key = (static_cast<uint64_t>(std::min(from, to)) << 32) | std::max(from, to);
+      balance[key] += from < to ? 1 : -1;
+    }
+  }
+  if (balance.empty()) return false;
+  return std::all_of(balance.begin(), balance.end(),
+                     [](const auto& entry) { return entry.second == 0; });
+}
+
 TriangleMesh LoadMesh(const fs::path& path) {
   TriangleMesh mesh;
   mesh.name = path.stem().string();

@@ -24,6 +24,16 @@ struct TriangleMesh {
   double Radius() const;
 };
 
+/// Whether the triangles close up: with vertices identified by position (so that vertices split by
+/// normals or texture coordinates count as one), every edge is traversed as often in one direction
+/// as in the other, as in a watertight, consistently oriented surface (also one of several parts,
+/// or with non-manifold edges). Triangles with a repeated vertex are left out. Then every line of
+/// sight from a point outside the mesh's bounding sphere that crosses the surface crosses it at
+/// least once through a triangle facing the viewer and once through one facing away, so either
+/// half of the triangles alone covers the whole silhouette (RenderSilhouette's FaceCulling).
+/// False for a mesh without triangles.
+bool IsClosedSurface(const TriangleMesh& mesh);
+
 /// Loads OBJ, PLY (ASCII/binary), STL (ASCII/binary), OFF, glTF 2.0 (.gltf/.glb) and the other
 /// formats assimp reads. All meshes and nodes of the file are merged into one triangle mesh, node
 /// transforms applied, polygons triangulated; points and lines are dropped.

@@ -678,6 +678,72 @@ TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
   ExpectBox(mesh, Eigen::Vector3d(0, 0, 5), Eigen::Vector3d(1, 1, 5));
 }
 
+TriangleMesh Cube() {
+  TriangleMesh mesh;
+  mesh.name = "cube";
+  for (int i = 0; i < 8; ++i) mesh.vertices.push_back(CubeCorner(i));
+  mesh.triangles.assign(kCubeTriangles.begin(), kCubeTriangles.end());
+  return mesh;
+}
+
+TEST(IsClosedSurface, TellsAClosedSurfaceFromOpenAndInconsistentOnes) {
+  const TriangleMesh cube = Cube();
+  EXPECT_TRUE(IsClosedSurface(cube));
+
+  // A face missing: its edges are traversed once.
+  TriangleMesh open = cube;
+  open.triangles.pop_back();
+  EXPECT_FALSE(IsClosedSurface(open));
+
+  // One triangle turned over: two of its edges are traversed twice the same way.
+  TriangleMesh flipped = cube;
+  std::swap(flipped.triangles[3][1], flipped.triangles[3][2]);
+  EXPECT_FALSE(IsClosedSurface(flipped));
+
+  // Turned inside out as a whole: still closed (orientation is not asked for).
+  TriangleMesh inverted = cube;
+  for (auto& triangle : inverted.triangles) std::swap(triangle[1], triangle[2]);
+  EXPECT_TRUE(IsClosedSurface(inverted));
+
+  // Two separate cubes, and a cube with a zero-area triangle (a repeated vertex) added.
+  TriangleMesh two = cube;
+  for (const auto& triangle : cube.triangles) {
+    two.triangles.push_back({triangle[0] + 8, triangle[1] + 8, triangle[2] + 8});
+  }
+  for (int i = 0; i < 8; ++i) two.vertices.push_back(CubeCorner(i) + Eigen::Vector3f(5, 0, 0));
+  EXPECT_TRUE(IsClosedSurface(two));
+  TriangleMesh with_sliver = cube;
+  with_sliver.triangles.push_back({0, 0, 7});
+  EXPECT_TRUE(IsClosedSurface(with_sliver));
+
+  EXPECT_FALSE(IsClosedSurface(TriangleMesh{}));
+}
+
+TEST(IsClosedSurface, IdentifiesVerticesByPosition) {
+  // Every triangle with its own three vertices, as a loader that keeps per-face normals gives:
+  // closed by position, though no two triangles share a vertex index.
+  const TriangleMesh cube = Cube();
+  TriangleMesh split;
+  for (const auto& triangle : cube.triangles) {
+    const auto first = static_cast<uint32_t>(split.vertices.size());
+    for (uint32_t v : triangle) split.vertices.push_back(cube.vertices[v]);
+    split.triangles.push_back({first, first + 1, first + 2});
+  }
+  EXPECT_TRUE(IsClosedSurface(split));
+  // A vertex moved off its position opens the surface there.
+  split.vertices[0].x() += 1e-3f;
+  EXPECT_FALSE(IsClosedSurface(split));
+}
+
+TEST(IsClosedSurface, SampleModelsAreClosed) {
+  // The database build renders closed meshes with half the triangles
+  // (render/silhouette_renderer.h).
+  for (const char* name : {"anchor", "bunny", "cow", "elephant", "hand"}) {
+    const fs::path path = fs::path(SILPOSE_SAMPLE_MODELS_DIR) / (std::string(name) + ".obj");
+    EXPECT_TRUE(IsClosedSurface(LoadMesh(path))) << path;
+  }
+}
+
 TEST(SampleModels, LoadWithTrianglesAndPositiveRadius) {
   const fs::path dir = SILPOSE_SAMPLE_MODELS_DIR;
   std::vector<fs::path> models;

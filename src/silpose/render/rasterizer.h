@@ -204,12 +204,15 @@ void RasterizeClippedTriangle(const std::array<uint32_t, 3>& triangle,
 // Rasterises every triangle of `mesh` (vertices from TransformVertices, which returned true), in
 // the mesh's order. For each triangle with something in front of the near plane, calls
 // begin_face(triangle) and then span(row, begin, end) for each of its rows (see EmitSpan); skips
-// triangles entirely behind the near plane or with a non-finite vertex. Throws silpose::Error if a
+// triangles entirely behind the near plane or with a non-finite vertex. With `front_faces_only`,
+// also skips the triangles in front of the near plane that face away from the camera (projected
+// clockwise on the image, whose y axis points down: their normal (b - a) x (c - a) points away);
+// those seen edge-on and those crossing the near plane are drawn. Throws silpose::Error if a
 // triangle references a missing vertex (after drawing the triangles before it).
 template <typename FaceFn, typename SpanFn>
 void RasterizeMesh(const TriangleMesh& mesh, const CameraVertices& vertices,
                    const PinholeCamera& camera, const Viewport& viewport, FaceFn&& begin_face,
-                   SpanFn&& span) {
+                   SpanFn&& span, bool front_faces_only = false) {
   const size_t vertex_count = mesh.vertices.size();
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std::array<uint32_t, 3>& triangle = mesh.triangles[t];
@@ -220,6 +223,14 @@ void RasterizeMesh(const TriangleMesh& mesh, const CameraVertices& vertices,
     const uint8_t s1 = vertices.state[triangle[1]];
     const uint8_t s2 = vertices.state[triangle[2]];
     if ((s0 | s1 | s2) == kInFront) {
+      if (front_faces_only) {
+        // Twice the signed area on the image; it has the sign of n . a for the camera-frame
+        // vertices a, b, c and normal n (f > 0, depths > 0): positive facing away.
+        const Point2& a = vertices.projected[triangle[0]];
+        const Point2& b = vertices.projected[triangle[1]];
+        const Point2& c = vertices.projected[triangle[2]];
+        if ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x) > 0.0) continue;
+      }
       begin_face(triangle);
       RasterizeTriangle(vertices.projected[triangle[0]], vertices.projected[triangle[1]],
                         vertices.projected[triangle[2]], viewport, span);

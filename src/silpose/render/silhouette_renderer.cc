@@ -54,7 +54,7 @@ inline void SetSpan(const Raster& raster, size_t offset, int count) {
 }  // namespace
 
 void RenderSilhouette(const TriangleMesh& mesh, const PinholeCamera& camera,
-                      const Rigid3& camera_from_object, cv::Mat* mask) {
+                      const Rigid3& camera_from_object, cv::Mat* mask, FaceCulling culling) {
   SILPOSE_ASSERT(mask != nullptr);
   std::string error;
   if (!camera.Check(&error)) ThrowError("invalid camera: ", error);
@@ -73,7 +73,8 @@ void RenderSilhouette(const TriangleMesh& mesh, const PinholeCamera& camera,
       [&raster](int row, int begin, int end) {
         SetSpan(raster, static_cast<size_t>(row) * raster.stride + static_cast<size_t>(begin),
                 end - begin);
-      });
+      },
+      culling == FaceCulling::kBackFaces);
 }
 
 bool ViewRenderOptions::Check(std::string* error) const {

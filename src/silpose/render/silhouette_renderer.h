@@ -11,11 +11,26 @@
 
 namespace silpose {
 
+/// Which triangles RenderSilhouette may leave out.
+enum class FaceCulling {
+  /// None: the silhouette of any triangle soup, from anywhere.
+  kNone,
+  /// The triangles facing away from the camera (with the mesh's orientation: counter-clockwise
+  /// seen from outside), about half of them. The silhouette is the same, pixel for pixel, when
+  /// IsClosedSurface(mesh) and the camera lies outside the mesh's bounding sphere (centre
+  /// TriangleMesh::Centre(), radius TriangleMesh::Radius()): then every line of sight through the
+  /// object crosses a triangle facing the camera. Otherwise parts of the silhouette may be missing.
+  /// (Only a pixel centre within rounding of an outline edge could differ.) The database build
+  /// uses it for closed meshes: it about halves the rendering time.
+  kBackFaces,
+};
+
 /// Renders the silhouette of `mesh` seen by `camera` at pose `camera_from_object`.
 /// Writes a CV_8UC1 mask of camera size into `mask` (reallocated if needed): 255 = object, 0 = not.
 /// Throws silpose::Error if the camera is invalid.
 void RenderSilhouette(const TriangleMesh& mesh, const PinholeCamera& camera,
-                      const Rigid3& camera_from_object, cv::Mat* mask);
+                      const Rigid3& camera_from_object, cv::Mat* mask,
+                      FaceCulling culling = FaceCulling::kNone);
 
 /// How the database cameras frame an object (paper 4.1): a square image, the camera at
 /// distance_in_radii * object radius from the object centre, focal length chosen so the object's

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -582,6 +583,64 @@ TEST(RenderSilhouette, IsDeterministic) {
   RenderView(sphere, Eigen::Vector3d(0.3, -0.5, 0.8), 33.0, options, &second);
   EXPECT_GT(cv::countNonZero(first), 1000);
   EXPECT_EQ(CountDifferences(first, second), 0);
+}
+
+// ----- Back-face culling ---------------------------------------------------------------------
+
+TEST(RenderSilhouette, BackFaceCullingKeepsTheSilhouetteOfClosedMeshes) {
+  // The sample models (closed surfaces) and a subdivided sphere, from random directions and
+  // distances outside the bounding sphere, at the database's framing and off-centre.
+  std::vector<TriangleMesh> meshes;
+  for (const char* name : {"bunny", "hand", "anchor"}) {
+    meshes.push_back(
+        LoadMesh(std::filesystem::path(SILPOSE_SAMPLE_MODELS_DIR) / (std::string(name) + ".obj")));
+  }
+  meshes.push_back(Icosphere(1.0, 3, Eigen::Vector3d(0.1, 0.2, 0.3)));
+  const PinholeCamera camera = PinholeCamera::Centered(256, 192, 240.0);
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_real_distribution<double> roll(-180.0, 180.0);
+  const double distances_in_radii[] = {1.05, 2.0, 3.0, 7.5, 20.0};
+  int drawn_pixels = 0;
+  for (const TriangleMesh& mesh : meshes) {
+    ASSERT_TRUE(IsClosedSurface(mesh)) << mesh.name;
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::Vector3d view(unit(random), unit(random), unit(random));
+      if (view.norm() < 1e-3) view = Eigen::Vector3d::UnitX();
+      const double distance = distances_in_radii[trial % 5] * mesh.Radius();
+      Rigid3 pose = CameraFromObjectAtView(view, roll(random), distance, mesh.Centre());
+      if (trial % 2 == 1) pose.translation.x() += 0.3 * distance;  // off the optical axis
+      cv::Mat all, culled;
+      RenderSilhouette(mesh, camera, pose, &all);
+      RenderSilhouette(mesh, camera, pose, &culled, FaceCulling::kBackFaces);
+      EXPECT_EQ(CountDifferences(all, culled), 0) << mesh.name << " trial " << trial;
+      drawn_pixels += cv::countNonZero(culled);
+    }
+  }
+  EXPECT_GT(drawn_pixels, 40 * 500);
+}
+
+TEST(RenderSilhouette, BackFaceCullingDrawsOnlyTrianglesFacingTheCamera) {
+  // One triangle, wound one way and the other: culling keeps it only when it faces the camera.
+  // (Alone it is not a closed surface, so culling changes its silhouette.)
+  TriangleMesh triangle;
+  AddTriangle(&triangle, {-0.2, -0.1, 1}, {0.0, 0.25, 0.9}, {0.3, -0.05, 1.2});
+  TriangleMesh reversed;
+  AddTriangle(&reversed, {-0.2, -0.1, 1}, {0.3, -0.05, 1.2}, {0.0, 0.25, 0.9});
+  const PinholeCamera camera = TestCamera(100, 80, 90.0, 50.0, 40.0);
+  cv::Mat front, back, all;
+  RenderSilhouette(triangle, camera, Rigid3(), &all);
+  ASSERT_GT(cv::countNonZero(all), 100);
+  // Exactly one of the two windings faces the camera: that one draws all its pixels, the other
+  // none.
+  RenderSilhouette(triangle, camera, Rigid3(), &front, FaceCulling::kBackFaces);
+  RenderSilhouette(reversed, camera, Rigid3(), &back, FaceCulling::kBackFaces);
+  EXPECT_EQ(cv::countNonZero(front) + cv::countNonZero(back), cv::countNonZero(all));
+  EXPECT_TRUE(cv::countNonZero(front) == 0 || cv::countNonZero(back) == 0);
+  // Counter-clockwise seen from the camera (image y down, so clockwise on the image) faces it.
+  const Eigen::Vector3d a(-0.2, -0.1, 1), b(0.0, 0.25, 0.9), c(0.3, -0.05, 1.2);
+  const bool faces_camera = (b - a).cross(c - a).dot(a) < 0.0;
+  EXPECT_EQ(cv::countNonZero(front) > 0, faces_camera);
 }
 
 // ----- Invalid arguments ---------------------------------------------------------------------
