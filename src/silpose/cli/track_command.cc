@@ -684,6 +684,12 @@ void AddTrackCommand(CLI::App& app) {
                    "--adaptive: the fewest particles an object keeps")
       ->capture_default_str();
   command
+      ->add_option("--dormant-particles", filter.dormant_particles_per_object,
+                   "--adaptive: the fewest particles an object keeps while its probability is "
+                   "below 1 % (at most --min-particles)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  command
       ->add_option("--max-particles", filter.max_particles_per_object,
                    "--adaptive: the most particles an object may grow to (raise it with more "
                    "--particles)")

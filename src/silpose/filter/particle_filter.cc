@@ -46,6 +46,10 @@ bool ParticleFilterOptions::Check(std::string* error) const {
   } else if (min_particles_per_object < 0 || min_particles_per_object > particles_per_object) {
     message << "min particles per object must be in [0, particles per object = "
             << particles_per_object << "], got " << min_particles_per_object;
+  } else if (dormant_particles_per_object < 0) {
+    message << "dormant particles per object must be >= 0, got " << dormant_particles_per_object;
+  } else if (!in(dormant_probability, 0.0, 1.0)) {
+    message << "dormant probability must be in [0, 1], got " << dormant_probability;
   } else if (!in(reseed_fraction, 0.0, 1.0)) {
     message << "reseed fraction must be in [0, 1], got " << reseed_fraction;
   } else if (guided_candidates < 1) {
@@ -880,10 +884,13 @@ void ParticleFilter::Resample(const std::vector<double>& object_mass,
       }
     }
     if (options_.adaptive) {
+      const int own_floor = object_mass[o] < options_.dormant_probability
+                                ? std::min(options_.dormant_particles_per_object, floor)
+                                : floor;
       count[o] = drawn[o] > 0
                      ? std::clamp(KldParticleCount(bins, options_.kld_epsilon, options_.kld_delta),
-                                  floor, options_.max_particles_per_object)
-                     : floor;
+                                  own_floor, options_.max_particles_per_object)
+                     : own_floor;
     } else {
       count[o] = std::max(drawn[o], floor);
     }

@@ -397,6 +397,7 @@ TEST_F(ParticleFilterTest, KldShrinksTheParticleCountAsParticlesConcentrateButKe
   options.adaptive = true;
   options.max_particles_per_object = 200;
   options.min_particles_per_object = 8;
+  options.dormant_particles_per_object = 8;  // one floor for every object
   options.seed = 9;
   ParticleFilter filter(Sphere(), *spectra_, options);
   std::vector<int> totals;
@@ -422,6 +423,58 @@ TEST_F(ParticleFilterTest, KldShrinksTheParticleCountAsParticlesConcentrateButKe
   for (const Particle& p : filter.particles()) ++per_object[static_cast<size_t>(p.object)];
   EXPECT_EQ(per_object[1], options.min_particles_per_object);
   EXPECT_EQ(per_object[2], options.min_particles_per_object);
+}
+
+TEST_F(ParticleFilterTest, DormantObjectsKeepTheirOwnFloorAndAreFoundAgainAfterASwitch) {
+  // Object 0, then a switch to object 2, adaptive with the default floors: objects below the
+  // dormant probability keep dormant_particles_per_object (1), the others at least
+  // min_particles_per_object; the proposal still finds the new object within 10 frames.
+  std::vector<TruePose> path = SmoothPath(40, 0, 30);
+  const std::vector<TruePose> after = SmoothPath(41, 2, 30);
+  path.insert(path.end(), after.begin(), after.end());
+  ParticleFilterOptions options;
+  options.adaptive = true;
+  options.seed = 4;
+  ASSERT_EQ(options.dormant_particles_per_object, 1);
+  ASSERT_LT(options.dormant_particles_per_object, options.min_particles_per_object);
+  ParticleFilter filter(Sphere(), *spectra_, options);
+  int right_since = -1;
+  int dormant_frames = 0;
+  for (size_t t = 0; t < path.size(); ++t) {
+    const FilterEstimate estimate = filter.Step(Signature(path[t]));
+    if (t >= 30) {
+      if (!Right(estimate, path[t])) {
+        right_since = -1;
+      } else if (right_since < 0) {
+        right_since = static_cast<int>(t);
+      }
+    }
+    if (!estimate.resampled) continue;
+    // Right after a resampling each object holds its floor or more; the weights it was given are
+    // its probability (Resample spreads each object's mass evenly over its particles).
+    std::vector<int> count(3, 0);
+    std::vector<double> mass(3, 0.0);
+    for (const Particle& p : filter.particles()) {
+      ++count[static_cast<size_t>(p.object)];
+      mass[static_cast<size_t>(p.object)] += p.weight;
+    }
+    for (size_t o = 0; o < 3; ++o) {
+      EXPECT_GE(count[o], options.dormant_particles_per_object) << "frame " << t;
+      EXPECT_LE(count[o], options.max_particles_per_object) << "frame " << t;
+    }
+    // Tracking object 0 well before the switch: the two others are dormant and hold exactly one
+    // particle each, the tracked one at least the ordinary floor.
+    if (t >= 10 && t < 30 && Right(estimate, path[t]) && mass[1] < options.dormant_probability &&
+        mass[2] < options.dormant_probability) {
+      EXPECT_EQ(count[1], 1) << "frame " << t;
+      EXPECT_EQ(count[2], 1) << "frame " << t;
+      EXPECT_GE(count[0], options.min_particles_per_object) << "frame " << t;
+      ++dormant_frames;
+    }
+  }
+  EXPECT_GE(dormant_frames, 5);
+  EXPECT_GE(right_since, 30);
+  EXPECT_LE(right_since, 30 + 10);
 }
 
 TEST_F(ParticleFilterTest, BestHistoryHasOneStatePerFrameEndingWithTheEstimate) {
@@ -724,6 +777,12 @@ TEST_F(ParticleFilterTest, InvalidOptionsAndForeignSpectraAreErrors) {
   EXPECT_THROW(make(options), Error);
   options = {};
   options.object_switch_probability = 1.0;
+  EXPECT_THROW(make(options), Error);
+  options = {};
+  options.dormant_particles_per_object = -1;
+  EXPECT_THROW(make(options), Error);
+  options = {};
+  options.dormant_probability = 1.5;
   EXPECT_THROW(make(options), Error);
   EXPECT_TRUE(ParticleFilterOptions{}.Check());
 
