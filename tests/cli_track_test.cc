@@ -229,6 +229,25 @@ TEST_F(CliTrackTest, WithoutACameraFileADefaultIsUsedWithAWarning) {
   EXPECT_EQ(ReadLines(Path("default.csv")).size(), 6u);
 }
 
+TEST_F(CliTrackTest, ManyFixedParticlesSuggestTheAdaptiveCount) {
+  // Two objects x 1500 particles reach the 3000 from which a fixed count is pointed to --adaptive;
+  // the default 60 per object, or --adaptive itself, say nothing.
+  const std::string masks = " " + sequence_ + "/masks --camera " + sequence_ + "/camera.yml";
+  CommandResult run = Silpose("track -d " + database_ + masks + " -o " + Path("many.csv") +
+                              " --max-frames 2 --particles 1500");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("note: 2 objects x 1500 particles = 3000 particles"), std::string::npos)
+      << run.err;
+  EXPECT_NE(run.err.find("--adaptive"), std::string::npos) << run.err;
+  run = Silpose("track -d " + database_ + masks + " -o " + Path("few.csv") + " --max-frames 2");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err.find("note:"), std::string::npos) << run.err;
+  run = Silpose("track -d " + database_ + masks + " -o " + Path("adaptive.csv") +
+                " --max-frames 2 --particles 1500 --max-particles 1500 --adaptive");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err.find("note:"), std::string::npos) << run.err;
+}
+
 TEST_F(CliTrackTest, BadSegmentationOptionsAreRefused) {
   for (const char* options :
        {"--segment grabcut", "--segment bgsub --bg-method foo", "--hsv-range 1,2,3",

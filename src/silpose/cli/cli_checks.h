@@ -48,6 +48,9 @@ inline CLI::Validator SeedNumber() {
 /// is scored against the frame each frame, so time and memory grow with the count; beyond a
 /// million a frame takes seconds. A hard limit.
 inline constexpr int64_t kMaxTotalParticles = 1'000'000;
+/// From this many particles over all objects (a fixed count), `track` suggests --adaptive: about
+/// 50 objects at the default 60 per object.
+inline constexpr int64_t kManyParticlesHint = 3000;
 
 /// Makes --particles, --min-particles and --max-particles consistent (docs/limits.md). Without
 /// --adaptive the count is fixed: the floor and cap follow it. With --adaptive the count moves

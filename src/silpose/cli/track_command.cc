@@ -427,6 +427,20 @@ void RunTrackJob(const TrackJob& arguments) {
   const ViewDatabase database = ViewDatabase::Read(arguments.database);
   if (!options.brute_force)
     CheckTotalParticles(options.filter, database.models.size(), arguments.database);
+  if (!options.brute_force && !options.filter.adaptive &&
+      static_cast<int64_t>(options.filter.particles_per_object) *
+              static_cast<int64_t>(database.models.size()) >=
+          kManyParticlesHint) {
+    // A fixed count scores every object's particles every frame; the adaptive count keeps one
+    // particle per unlikely object (docs/PERFORMANCE.md, "Scale").
+    std::fprintf(stderr,
+                 "note: %zu objects x %d particles = %lld particles scored every frame; with "
+                 "--adaptive an unlikely object keeps one particle (at 200 objects about 500 in "
+                 "all, 1.7 ms instead of 23 ms per frame, as accurate: docs/PERFORMANCE.md)\n",
+                 database.models.size(), options.filter.particles_per_object,
+                 static_cast<long long>(options.filter.particles_per_object) *
+                     static_cast<long long>(database.models.size()));
+  }
 
   // The first frame fixes the size (cameras and unindexed videos do not say it before).
   cv::Mat frame;
