@@ -637,7 +637,7 @@ TEST(RenderSilhouette, BackFaceCullingDrawsOnlyTrianglesFacingTheCamera) {
   RenderSilhouette(reversed, camera, Rigid3(), &back, FaceCulling::kBackFaces);
   EXPECT_EQ(cv::countNonZero(front) + cv::countNonZero(back), cv::countNonZero(all));
   EXPECT_TRUE(cv::countNonZero(front) == 0 || cv::countNonZero(back) == 0);
-  // Counter-clockwise seen from the camera (image y down, so clockwise on the image) faces it.
+  // The winding that faces the camera is the one whose normal (b - a) x (c - a) points towards it.
   const Eigen::Vector3d a(-0.2, -0.1, 1), b(0.0, 0.25, 0.9), c(0.3, -0.05, 1.2);
   const bool faces_camera = (b - a).cross(c - a).dot(a) < 0.0;
   EXPECT_EQ(cv::countNonZero(front) > 0, faces_camera);
