@@ -462,17 +462,29 @@ TEST_F(ParticleFilterTest, DormantObjectsKeepTheirOwnFloorAndAreFoundAgainAfterA
       EXPECT_GE(count[o], options.dormant_particles_per_object) << "frame " << t;
       EXPECT_LE(count[o], options.max_particles_per_object) << "frame " << t;
     }
-    // Tracking object 0 well before the switch: the two others are dormant and hold exactly one
-    // particle each, the tracked one at least the ordinary floor.
-    if (t >= 10 && t < 30 && Right(estimate, path[t]) && mass[1] < options.dormant_probability &&
-        mass[2] < options.dormant_probability) {
-      EXPECT_EQ(count[1], 1) << "frame " << t;
-      EXPECT_EQ(count[2], 1) << "frame " << t;
-      EXPECT_GE(count[0], options.min_particles_per_object) << "frame " << t;
-      ++dormant_frames;
+    // While an object is tracked (object 0, then object 2) the tracked one keeps at least the
+    // ordinary floor; the others, once dormant, settle to one particle each (KLD may still give a
+    // dormant object more in the frame its many particles are drawn from, right after a switch).
+    if (t >= 10 && Right(estimate, path[t])) {
+      const auto tracked = static_cast<size_t>(estimate.object);
+      EXPECT_GE(count[tracked], options.min_particles_per_object) << "frame " << t;
+      bool settled = true;
+      for (size_t o = 0; o < 3; ++o) {
+        if (o != tracked) {
+          settled = settled && mass[o] < options.dormant_probability && count[o] == 1;
+        }
+      }
+      if (settled) ++dormant_frames;
     }
   }
-  EXPECT_GE(dormant_frames, 5);
+  // How often the filter resamples depends on rounding (fewer frames in sanitizer builds).
+  EXPECT_GE(dormant_frames, 10);
+  // At the end object 2 is tracked, and the two others (object 0 tracked before) hold one each.
+  std::vector<int> final_count(3, 0);
+  for (const Particle& p : filter.particles()) ++final_count[static_cast<size_t>(p.object)];
+  EXPECT_EQ(final_count[0], 1);
+  EXPECT_EQ(final_count[1], 1);
+  EXPECT_GE(final_count[2], options.min_particles_per_object);
   EXPECT_GE(right_since, 30);
   EXPECT_LE(right_since, 30 + 10);
 }
