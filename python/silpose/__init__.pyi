@@ -137,6 +137,8 @@ class TrackerOptions:
     on_axis_matching: bool
     estimate_pose: bool
     refine: bool
+    fit_arbitration_ratio: float
+    fit_arbitration_margin_px: float
     canonical_poses: bool
     seed: int
     keep_history: bool

@@ -828,6 +828,12 @@ void BindTrack(py::module_& m) {
                      "Estimate the 6-DOF pose of frames with a silhouette.")
       .def_readwrite("refine", &TrackerOptions::refine,
                      "Refine the pose against the frame's outline (--no-refine: False).")
+      .def_readwrite("fit_arbitration_ratio", &TrackerOptions::fit_arbitration_ratio,
+                     "When the frame's best-scoring hypothesis lies outside the filter's mode, "
+                     "report it if its refined outline distance is below this ratio times the "
+                     "other's (0.8; 0 = off, --no-fit-arbitration).")
+      .def_readwrite("fit_arbitration_margin_px", &TrackerOptions::fit_arbitration_margin_px,
+                     "... and lower by more than this many pixels (0.25).")
       .def_readwrite("canonical_poses", &TrackerOptions::canonical_poses,
                      "Report the poses of symmetric objects in canonical form "
                      "(--no-canonical-poses: False).")

@@ -116,6 +116,11 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
     assert many.particles_per_object == 400
     with pytest.raises(silpose.Error, match="particles"):
         silpose.TrackerOptions(particles_per_object=0).check()
+    # Fit arbitration: on by default, off at ratio 0, a ratio above 1 refused.
+    assert silpose.TrackerOptions().fit_arbitration_ratio == 0.8
+    silpose.TrackerOptions(fit_arbitration_ratio=0.0).check()
+    with pytest.raises(silpose.Error, match="fit_arbitration_ratio"):
+        silpose.TrackerOptions(fit_arbitration_ratio=1.5).check()
     with pytest.raises(silpose.Error, match="TrackerOptions: unknown option 'segmnt'"):
         silpose.TrackerOptions(segmnt="bgsub")
     with pytest.raises(silpose.Error, match="'bgsubtraction'"):

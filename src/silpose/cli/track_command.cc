@@ -726,6 +726,11 @@ void AddTrackCommand(CLI::App& app) {
                     "explains the whole input best (offline smoothing; docs/tracking.md)");
   command->add_flag("!--no-refine", arguments->tracker.refine,
                     "Report the database view's pose without the continuous contour refinement");
+  command->add_flag_callback(
+      "--no-fit-arbitration", [arguments] { arguments->tracker.fit_arbitration_ratio = 0.0; },
+      "Let the scores alone decide when the frame's best-scoring hypothesis lies outside the "
+      "filter's mode (by default both are refined and the better fit is reported; "
+      "docs/tracking.md)");
   command
       ->add_option("--min-confidence", arguments->tracker.state.min_confidence,
                    "Confidence from which a frame's state is 'tracking' (docs/confidence.md)")

@@ -310,18 +310,19 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
   if (options_.estimate_rule == EstimateRule::kMostProbableArea) {
     best = MostProbableAreaParticle(estimate);
   }
-  if (frame != nullptr && options_.cut_score_gap > 0.0) {
-    // A cut: a particle (typically a proposal) matches the frame cleanly and far better than the
-    // chosen hypothesis. The likelihood floor would make the posterior need a frame or two to
-    // move there; the evidence is unequivocal, so the estimate and the weight move at once.
+  if (frame != nullptr) {
     size_t top = 0;
     for (size_t i = 1; i < particles_.size(); ++i) {
       if (particles_[i].score > particles_[top].score) top = i;
     }
-    const double top_score = particles_[top].score;
-    if (top_score >= options_.cut_min_score &&
-        top_score - particles_[best].score >= options_.cut_score_gap) {
-      // The weights sum to 1: the top particle takes half, the others share the rest.
+    const auto describe = [this](const Particle& p) {
+      return FilterEstimate::Top{
+          p.object,     p.view, ShellOf(p.object, p.view), p.roll_known ? p.roll_deg : 0.0,
+          p.roll_known, p.score};
+    };
+    estimate.top = describe(particles_[top]);
+    // The top particle is reported and takes half of the weight (the others share the rest).
+    const auto promote = [&] {
       if (particles_[top].weight < 0.5) {
         const double scale = 0.5 / (1.0 - particles_[top].weight);
         for (size_t i = 0; i < particles_.size(); ++i) {
@@ -331,7 +332,31 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
         sum_weights();
       }
       best = top;
+    };
+    const double top_score = particles_[top].score;
+    if (options_.cut_score_gap > 0.0 && top_score >= options_.cut_min_score &&
+        top_score - particles_[best].score >= options_.cut_score_gap) {
+      // A cut: a particle (typically a proposal) matches the frame cleanly and far better than
+      // the chosen hypothesis. The likelihood floor would make the posterior need a frame or two
+      // to move there; the evidence is unequivocal, so the estimate and the weight move at once.
+      promote();
       estimate.cut = true;
+    } else if (arbiter_ && top != best && particles_[top].score > particles_[best].score &&
+               particles_[top].roll_known && particles_[best].roll_known) {
+      const Particle& c = particles_[best];
+      const Particle& t = particles_[top];
+      const bool same_mode =
+          c.object == t.object &&
+          equivalence_[static_cast<size_t>(c.object)].AngleDeg(
+              sphere_.directions[static_cast<size_t>(c.view)],
+              sphere_.directions[static_cast<size_t>(t.view)]) <= options_.mode_radius_deg;
+      if (!same_mode) {
+        estimate.arbitrated = true;
+        if (arbiter_(describe(c), describe(t))) {
+          promote();
+          estimate.challenger_won = true;
+        }
+      }
     }
   }
   estimate.num_particles = static_cast<int>(particles_.size());

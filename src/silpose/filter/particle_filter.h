@@ -180,6 +180,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <random>
@@ -428,6 +429,9 @@ struct FilterEstimate {
   int proposed = 0;
   /// The cut rule fired (ParticleFilterOptions::cut_score_gap).
   bool cut = false;
+  /// The arbiter was asked (ParticleFilter::SetArbiter), and whether it took the challenger.
+  bool arbitrated = false;
+  bool challenger_won = false;
   /// Each object's share of the total weight (sums to 1), after the measurement.
   std::vector<double> object_probability;
   /// Particles per object during this frame's measurement (before resampling).
@@ -455,6 +459,17 @@ struct FilterEstimate {
     float score = 0.0f;
     double mass = 0.0;
   } runner_up;
+  /// The particle that scored highest on this frame (measured frames; a proposal, typically):
+  /// what a search of the frame alone would report among the particles. object = -1 when not
+  /// measured.
+  struct Top {
+    int object = -1;
+    int view = -1;
+    int shell = 0;
+    double roll_deg = 0.0;
+    bool roll_known = false;
+    float score = 0.0f;
+  } top;
 };
 
 class ParticleFilter {
@@ -485,6 +500,19 @@ class ParticleFilter {
   void ObserveRotation(const Eigen::Matrix3d& camera_from_object_on_axis);
   /// One frame without a measurement (no usable silhouette): prediction, estimate, history.
   FilterEstimate Predict();
+
+  /// Decides between two hypotheses of a measured frame by evidence the filter does not have
+  /// (the tracker fits both models to the frame's outline): true if `challenger` explains the
+  /// frame better than `chosen`. See SetArbiter.
+  using Arbiter =
+      std::function<bool(const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger)>;
+  /// With an arbiter, in every measured frame in which the particle that scored highest lies
+  /// outside the mode of the estimate rule's choice (another object, or a view farther than
+  /// mode_radius_deg modulo symmetry) and scored higher than the choice, the arbiter is asked;
+  /// if it prefers the challenger, the frame is treated as a cut (step 3): the challenger is
+  /// reported and given half of the total weight. Without one (the default), only the scores
+  /// decide. The arbiter is called from Step, on its thread.
+  void SetArbiter(Arbiter arbiter) { arbiter_ = std::move(arbiter); }
 
   const std::vector<Particle>& particles() const { return particles_; }
   int num_objects() const { return num_objects_; }
@@ -571,6 +599,7 @@ class ParticleFilter {
   int num_views_ = 0;
   CircularCorrelator correlator_;
   std::mt19937_64 rng_;
+  Arbiter arbiter_;
   int64_t frame_ = 0;
   bool measured_once_ = false;
   /// Score of the last measured frame's estimate (proposal schedule), and the next object whose

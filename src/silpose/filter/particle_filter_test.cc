@@ -196,6 +196,89 @@ TEST_F(ParticleFilterTest, ReidentifiesTheObjectWithinTenFramesAfterASwitch) {
   }
 }
 
+TEST_F(ParticleFilterTest, ArbiterDecidesOnlyBetweenTheChoiceAndAHigherScoringOtherMode) {
+  // Object 0, then object 2 from frame 12, every third frame eroded: the frames after the switch
+  // and the degraded ones are where the best-scoring particle leaves the estimate's mode.
+  std::vector<TruePose> path = SmoothPath(61, 0, 12);
+  const std::vector<TruePose> after = SmoothPath(62, 2, 18);
+  path.insert(path.end(), after.begin(), after.end());
+  std::vector<std::vector<float>> signatures;
+  for (size_t t = 0; t < path.size(); ++t) {
+    signatures.push_back(
+        Signature(path[t], t % 3 == 2 ? Degradation::kErosion : Degradation::kNone));
+  }
+  ParticleFilterOptions options;
+  options.seed = 8;
+  const auto angle_deg = [](int a, int b) {
+    const double c = Sphere().directions[static_cast<size_t>(a)].dot(
+        Sphere().directions[static_cast<size_t>(b)]);
+    return std::acos(std::clamp(c, -1.0, 1.0)) / kDegToRad;
+  };
+  struct Call {
+    FilterEstimate::Top chosen, challenger;
+  };
+  const auto run = [&](bool with_arbiter, bool prefer_challenger, std::vector<Call>* calls) {
+    ParticleFilter filter(Sphere(), *spectra_, options);
+    if (with_arbiter) {
+      filter.SetArbiter(
+          [=](const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger) {
+            calls->push_back({chosen, challenger});
+            return prefer_challenger;
+          });
+    }
+    std::vector<FilterEstimate> estimates;
+    for (const std::vector<float>& signature : signatures) {
+      estimates.push_back(filter.Step(signature));
+    }
+    return estimates;
+  };
+  std::vector<Call> none;
+  const std::vector<FilterEstimate> plain = run(false, false, &none);
+  std::vector<Call> refused;
+  const std::vector<FilterEstimate> kept = run(true, false, &refused);
+  ASSERT_FALSE(refused.empty());
+  // Asked only about a challenger that scored higher, outside the choice's mode (the sample
+  // models have no rotational symmetry: plain angles), with both rolls known.
+  for (const Call& call : refused) {
+    EXPECT_GT(call.challenger.score, call.chosen.score);
+    EXPECT_TRUE(call.chosen.roll_known && call.challenger.roll_known);
+    EXPECT_TRUE(call.challenger.object != call.chosen.object ||
+                angle_deg(call.challenger.view, call.chosen.view) > options.mode_radius_deg);
+  }
+  // An arbiter that keeps the choice changes nothing.
+  ASSERT_EQ(kept.size(), plain.size());
+  int asked = 0;
+  for (size_t t = 0; t < kept.size(); ++t) {
+    EXPECT_EQ(kept[t].object, plain[t].object) << t;
+    EXPECT_EQ(kept[t].view, plain[t].view) << t;
+    EXPECT_EQ(kept[t].roll_deg, plain[t].roll_deg) << t;
+    EXPECT_EQ(kept[t].object_probability, plain[t].object_probability) << t;
+    EXPECT_FALSE(plain[t].arbitrated);
+    EXPECT_FALSE(kept[t].challenger_won);
+    // The top particle is reported in every measured frame, and no particle scored higher than it.
+    EXPECT_GE(kept[t].top.score, kept[t].score) << t;
+    EXPECT_GE(kept[t].top.object, 0);
+    asked += kept[t].arbitrated;
+  }
+  EXPECT_EQ(asked, static_cast<int>(refused.size()));
+  // An arbiter that prefers the challenger: it is reported, with half of the weight.
+  std::vector<Call> granted;
+  const std::vector<FilterEstimate> moved = run(true, true, &granted);
+  int won = 0;
+  for (const FilterEstimate& estimate : moved) {
+    if (!estimate.arbitrated) continue;
+    ++won;
+    EXPECT_TRUE(estimate.challenger_won);
+    EXPECT_EQ(estimate.object, estimate.top.object);
+    EXPECT_EQ(estimate.view, estimate.top.view);
+    EXPECT_EQ(estimate.score, estimate.top.score);
+    EXPECT_GE(estimate.weight, 0.5 - 1e-9);
+    EXPECT_GE(estimate.object_probability[static_cast<size_t>(estimate.object)], 0.5 - 1e-9);
+  }
+  EXPECT_GT(won, 0);
+  EXPECT_EQ(won, static_cast<int>(granted.size()));
+}
+
 TEST_F(ParticleFilterTest, ProposalCoversEveryObjectOnlyWhenTheParticlesLoseTheFrame) {
   // Object 0 for 20 frames, then object 2: the switch is a frame the particles lose.
   std::vector<TruePose> path = SmoothPath(50, 0, 20);

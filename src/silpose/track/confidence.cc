@@ -38,9 +38,9 @@ ConfidenceModel ConfidenceModel::Default() {
   // Fitted by `silpose eval confidence --sequences 3 --frames 100` on the sample models (fit on
   // bunny and cow and their look-alikes; docs/confidence.md), printed to model.txt.
   ConfidenceModel model;
-  model.bias = -8.69413264;
-  model.weights = {0.427495477, -0.557145862, -1.30867375, 0.532258559, 0.31380867,  6.4764896,
-                   -33.9713198, 0.11513037,   4.341399,    -4.80532227, 0.194270717, 0.201027759};
+  model.bias = -10.1256198;
+  model.weights = {0.749606111, -0.280082073, -0.637298065, 0.641516732, 0.285431921, 6.6394591,
+                   -33.1224438, 0.150282079,  4.94739851,   -4.45297334, 0.149039892, 0.183033688};
   return model;
 }
 

@@ -43,6 +43,14 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "refinement: " + problem;
     return false;
   }
+  if (!(fit_arbitration_ratio >= 0.0 && fit_arbitration_ratio <= 1.0)) {
+    if (error != nullptr) *error = "fit_arbitration_ratio must be in [0, 1] (0 = off)";
+    return false;
+  }
+  if (!(fit_arbitration_margin_px >= 0.0 && std::isfinite(fit_arbitration_margin_px))) {
+    if (error != nullptr) *error = "fit_arbitration_margin_px must be finite and >= 0";
+    return false;
+  }
   if (!state.Check(&problem)) {
     if (error != nullptr) *error = "state: " + problem;
     return false;
@@ -93,6 +101,12 @@ Tracker::Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra
   matcher_ = std::make_unique<ViewMatcher>(*spectra_);
   if (!options_.brute_force) {
     filter_ = std::make_unique<ParticleFilter>(database_.sphere, *spectra_, options_.filter);
+    if (options_.estimate_pose && options_.refine && options_.fit_arbitration_ratio > 0.0) {
+      filter_->SetArbiter(
+          [this](const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger) {
+            return ArbitrateByFit(chosen, challenger);
+          });
+    }
   }
   for (const ModelViews& model : database_.models) equivalence_.emplace_back(model.symmetry);
 }
@@ -102,16 +116,24 @@ Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
 
 Tracker::~Tracker() = default;
 
+namespace {
+
+// Whether a refinement is kept: it explains the outline better than the grid pose.
+bool Improves(const ContourRefinementResult& refined) {
+  return refined.final_rms_px <= refined.initial_rms_px && refined.points_used >= 6 &&
+         refined.camera_from_object.rotation.allFinite() &&
+         refined.camera_from_object.translation.allFinite();
+}
+
+}  // namespace
+
 void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
   FrameResult& result = tracked->result;
   SilhouettePose& pose = *tracked->pose;
-  const FrameOutline outline(tracked->segmentation.mask);
+  const FrameOutline& outline = Outline(*tracked);
   ContourRefinementResult refined =
       RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
-  // Keep the refinement only if it explains the outline better than the grid pose.
-  if (!(refined.final_rms_px <= refined.initial_rms_px) || refined.points_used < 6 ||
-      !refined.camera_from_object.rotation.allFinite() ||
-      !refined.camera_from_object.translation.allFinite()) {
+  if (!Improves(refined)) {
     tracked->refinement = std::move(refined);
     tracked->refinement->camera_from_object = pose.camera_from_object;
     return;
@@ -136,6 +158,51 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
   tracked->refinement = std::move(refined);
   // The refined orientation feeds the filter's velocity.
   if (filter_ && feed_filter) filter_->ObserveRotation(on_axis);
+}
+
+const FrameOutline& Tracker::Outline(const TrackedFrame& tracked) {
+  const cv::Mat& mask = tracked.segmentation.mask;
+  if (!outline_ || outline_frame_ != tracked.result.frame || outline_data_ != mask.data) {
+    outline_.reset();
+    outline_.emplace(mask);
+    outline_frame_ = tracked.result.frame;
+    outline_data_ = mask.data;
+  }
+  return *outline_;
+}
+
+bool Tracker::ArbitrateByFit(const FilterEstimate::Top& chosen,
+                             const FilterEstimate::Top& challenger) {
+  if (current_ == nullptr) return false;
+  const auto start = std::chrono::steady_clock::now();
+  // The fit of a hypothesis: robust RMS outline distance (pixels) and IoU of the pose the
+  // tracker would report for it, grid pose or refined.
+  const auto pose = [&](const FilterEstimate::Top& h, double* rms, double* iou) {
+    Posed& posed = posed_.emplace_back();
+    posed.object = h.object;
+    posed.view = h.view;
+    posed.frame = *current_;
+    TrackedFrame& frame = posed.frame;
+    FrameResult& r = frame.result;
+    r.object = h.object;
+    r.object_name = database_.models[static_cast<size_t>(h.object)].name;
+    r.view_dir_in_object = database_.sphere.directions[static_cast<size_t>(h.view)];
+    r.roll_deg = h.roll_deg;
+    EstimatePose(h.view, h.shell, /*feed_filter=*/false, &frame, [] { return 0.0; });
+    const std::optional<ContourRefinementResult>& fit = frame.refinement;
+    if (!fit || fit->points_used < 6) return false;
+    *rms = std::min(fit->final_rms_px, fit->initial_rms_px);
+    *iou = fit->iou;
+    return std::isfinite(*rms);
+  };
+  double chosen_rms = 0.0, chosen_iou = 0.0, challenger_rms = 0.0, challenger_iou = 0.0;
+  const bool challenger_fits = pose(challenger, &challenger_rms, &challenger_iou);
+  const bool chosen_fits = challenger_fits && pose(chosen, &chosen_rms, &chosen_iou);
+  arbitration_ms_ +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return chosen_fits && challenger_rms < options_.fit_arbitration_ratio * chosen_rms &&
+         chosen_rms - challenger_rms > options_.fit_arbitration_margin_px &&
+         challenger_iou >= chosen_iou;
 }
 
 bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin) {
@@ -270,7 +337,7 @@ void Tracker::MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px) {
   check.max_iterations = 1;
   check.compute_iou = true;
   try {
-    const FrameOutline outline(tracked->segmentation.mask);
+    const FrameOutline& outline = Outline(*tracked);
     const ContourRefinementResult fit =
         RefinePoseToContour(mesh, camera_, outline, tracked->pose->camera_from_object, check);
     *iou = fit.iou;
@@ -571,9 +638,17 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   int view = -1;
   int shell = 0;
   bool roll_known = false;
+  posed_.clear();
+  arbitration_ms_ = 0.0;
   if (filter_) {
+    // The arbiter (called from Step) poses hypotheses on this frame, and on no other.
+    struct CurrentFrame {
+      TrackedFrame*& current;
+      ~CurrentFrame() { current = nullptr; }
+    } scope{current_ = &tracked};
     tracked.estimate = usable ? filter_->Step(radii, apparent_radius) : filter_->Predict();
-    result.time_match_ms = lap();
+    // The arbitration's pose estimates count as refinement.
+    result.time_match_ms = lap() - arbitration_ms_;
     const FilterEstimate& estimate = *tracked.estimate;
     result.particles = estimate.num_particles;
     result.effective_particles = estimate.effective_particles;
@@ -607,8 +682,29 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   if (result.object >= 0 && view >= 0) {
     result.object_name = database_.models[static_cast<size_t>(result.object)].name;
     result.view_dir_in_object = database_.sphere.directions[static_cast<size_t>(view)];
-    if (options_.estimate_pose && usable && roll_known)
+    const auto posed = std::find_if(posed_.begin(), posed_.end(), [&](const Posed& p) {
+      return p.object == result.object && p.view == view;
+    });
+    if (options_.estimate_pose && usable && roll_known && posed != posed_.end()) {
+      // Posed by the arbitration already.
+      const TrackedFrame& done = posed->frame;
+      tracked.pose = done.pose;
+      tracked.refinement = done.refinement;
+      result.camera_from_object = done.result.camera_from_object;
+      result.view_dir_in_object = done.result.view_dir_in_object;
+      result.roll_deg = done.result.roll_deg;
+      result.status = done.result.status;
+      result.time_refine_ms = arbitration_ms_;
+      if (done.pose && done.refinement && Improves(*done.refinement)) {
+        const Eigen::Matrix3d on_axis =
+            RotationFromOpticalAxisTo(done.pose->centre_ray).transpose() *
+            done.pose->camera_from_object.rotation;
+        filter_->ObserveRotation(on_axis);
+      }
+    } else if (options_.estimate_pose && usable && roll_known) {
       EstimatePose(view, shell, /*feed_filter=*/true, &tracked, lap);
+      result.time_refine_ms += arbitration_ms_;
+    }
   }
   Assess(&tracked, usable, radii, view, shell);
   Canonicalise(&result, /*runner_up=*/true);

@@ -70,6 +70,17 @@ struct TrackerOptions {
   /// rotation also gives the reported view direction and roll, and the filter's velocity.
   bool refine = true;
   ContourRefinementOptions refinement;
+  /// Fit arbitration (filter mode with refinement; docs/tracking.md): when the particle that
+  /// scored highest on a frame lies outside the mode the filter would report and scored higher
+  /// (the other side of a flat object, a mirror twin, a look-alike object), both hypotheses are
+  /// posed and refined against the frame's outline. The challenger is reported, and given half
+  /// of the filter's weight, if its robust RMS outline distance is below fit_arbitration_ratio
+  /// times the other's and lower by more than fit_arbitration_margin_px, and its IoU is no
+  /// lower. Ratio 0 = off: the scores alone decide (and no frame is posed twice).
+  double fit_arbitration_ratio = 0.8;
+  /// About the RMS outline distance of the right pose on a perfectly segmented frame (0.15-0.35
+  /// px): a smaller difference is pixel noise, not evidence.
+  double fit_arbitration_margin_px = 0.25;
   /// Report the poses of symmetric objects in canonical form (geometry/symmetry.h,
   /// docs/symmetry.md): of the poses that look alike by the object's symmetries, the one whose
   /// camera direction lies in a fixed sector of the object. Off: the pose as matched.
@@ -183,6 +194,11 @@ class Tracker {
   /// shell `shell` at the result's roll; status suffixes as Process documents.
   void EstimatePose(int view, int shell, bool feed_filter, TrackedFrame* tracked,
                     const std::function<double()>& lap);
+  /// The filter's arbiter (ParticleFilter::SetArbiter): poses both hypotheses on the frame being
+  /// processed, keeps them in posed_, and compares their fits.
+  bool ArbitrateByFit(const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger);
+  /// The outline of `tracked`'s mask, built once per frame.
+  const FrameOutline& Outline(const TrackedFrame& tracked);
   /// Canonical forms of the result's pose and runner-up (TrackerOptions::canonical_poses).
   void Canonicalise(FrameResult* result, bool runner_up) const;
 
@@ -232,6 +248,19 @@ class Tracker {
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).
   double previous_area_px_ = 0.0;
+  // Fit arbitration: the frame being processed, the hypotheses posed on it, and the time spent.
+  TrackedFrame* current_ = nullptr;
+  struct Posed {
+    int object = -1;
+    int view = -1;
+    TrackedFrame frame;
+  };
+  std::vector<Posed> posed_;
+  double arbitration_ms_ = 0.0;
+  // The outline of frame outline_frame_'s mask (Outline).
+  std::optional<FrameOutline> outline_;
+  int64_t outline_frame_ = -1;
+  const uint8_t* outline_data_ = nullptr;
 };
 
 }  // namespace silpose

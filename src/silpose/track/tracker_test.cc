@@ -415,6 +415,64 @@ TEST(Tracker, HandheldOffAxisSequenceIsTrackedBelowTheViewGrid) {
   EXPECT_LT(mean(coarse.rotation_deg), mean(paper_errors.rotation_deg));
 }
 
+TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) {
+  // Trackers with and without fit arbitration, in lockstep (same seed) over hand-held sequences
+  // of the sample models with threshold-like masks, up to the first frame in which the arbitration
+  // took the challenger. Until then both report the same; in that frame the tracker without it
+  // reports the filter's choice, and its refined outline distance is what the challenger's beat.
+  TrackerOptions off;
+  off.fit_arbitration_ratio = 0.0;
+  const TrackerOptions on;
+  int frames_arbitrated = 0;
+  for (const uint64_t seed : {1, 2, 3, 4}) {
+    for (const char* name : {"cow", "hand"}) {
+      SequenceOptions sequence_options;
+      sequence_options.trajectory.kind = TrajectoryKind::kHandheld;
+      sequence_options.trajectory.num_frames = 40;
+      sequence_options.trajectory.handheld.seed = seed;
+      sequence_options.degradation.seed = seed;
+      sequence_options.degradation =
+          WithMaskQuality(sequence_options.degradation, MaskQuality::kThreshold);
+      const SyntheticSequence sequence({LoadMesh(kModels / (std::string(name) + ".obj"))},
+                                       sequence_options);
+      Tracker with(Database(), sequence.camera(), on);
+      Tracker without(Database(), sequence.camera(), off);
+      for (int f = 0; f < sequence.num_frames(); ++f) {
+        const cv::Mat mask = sequence.Generate(f).mask;
+        const TrackedFrame a = with.Process(mask);
+        const TrackedFrame b = without.Process(mask);
+        ASSERT_TRUE(a.estimate && b.estimate);
+        EXPECT_FALSE(b.estimate->arbitrated);
+        if (!a.estimate->challenger_won) {
+          EXPECT_EQ(EstimateText(a.result), EstimateText(b.result)) << name << seed << " " << f;
+          continue;
+        }
+        ++frames_arbitrated;
+        // The challenger is reported, posed and refined.
+        EXPECT_EQ(a.result.object, a.estimate->top.object);
+        ASSERT_TRUE(a.refinement.has_value() && a.result.camera_from_object.has_value());
+        // Without arbitration the same frame reports another hypothesis (the filter's choice),
+        // which fits the outline worse by the ratio and the margin.
+        EXPECT_TRUE(b.result.object != a.result.object || b.estimate->view != a.estimate->view);
+        ASSERT_TRUE(b.refinement.has_value());
+        const auto fit = [](const ContourRefinementResult& r) {
+          return std::min(r.final_rms_px, r.initial_rms_px);
+        };
+        EXPECT_LT(fit(*a.refinement), on.fit_arbitration_ratio * fit(*b.refinement));
+        EXPECT_GT(fit(*b.refinement) - fit(*a.refinement), on.fit_arbitration_margin_px);
+        EXPECT_GE(a.refinement->iou, b.refinement->iou);
+        // Its time counts as refinement, not as the filter step.
+        EXPECT_GT(a.result.time_refine_ms, 0.0);
+        break;
+      }
+      if (frames_arbitrated > 0) break;
+    }
+    if (frames_arbitrated > 0) break;
+  }
+  // Threshold-like masks make such frames common: the first sequence already has one.
+  EXPECT_EQ(frames_arbitrated, 1);
+}
+
 TEST(Tracker, CanonicalFormIsAnEquivalentPoseSharedByAllEquivalentPoses) {
   // A bearing-like object: continuous about y through c, with a flip about x.
   const Eigen::Vector3d c(0.0, 1.0, 0.5);
