@@ -316,7 +316,7 @@ FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {
       if (particles_[i].score > particles_[top].score) top = i;
     }
     const auto describe = [this](const Particle& p) {
-      return FilterEstimate::Top{
+      return FilterEstimate::Hypothesis{
           p.object,     p.view, ShellOf(p.object, p.view), p.roll_known ? p.roll_deg : 0.0,
           p.roll_known, p.score};
     };
@@ -436,8 +436,9 @@ void ParticleFilter::AnalyseModes(FilterEstimate* estimate) const {
         other.AngleDeg(direction(p.view), direction(r.view)) <= radius)
       mass += p.weight;
   }
-  estimate->runner_up = {r.object,     r.view,  r.roll_known ? r.roll_deg : 0.0,
-                         r.roll_known, r.score, mass / total};
+  estimate->runner_up = {{r.object, r.view, ShellOf(r.object, r.view),
+                          r.roll_known ? r.roll_deg : 0.0, r.roll_known, r.score},
+                         mass / total};
 }
 
 size_t ParticleFilter::MostProbableAreaParticle(const FilterEstimate& estimate) {

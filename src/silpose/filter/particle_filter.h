@@ -410,6 +410,16 @@ struct Particle {
 
 /// What one frame gave.
 struct FilterEstimate {
+  /// One hypothesis: a particle's object, view, distance shell, roll (0 while unknown) and score.
+  struct Hypothesis {
+    int object = -1;
+    int view = -1;
+    int shell = 0;
+    double roll_deg = 0.0;
+    bool roll_known = false;
+    float score = 0.0f;
+  };
+
   int64_t frame = 0;
   /// False for a prediction-only frame (no usable silhouette: Predict).
   bool measured = false;
@@ -451,25 +461,13 @@ struct FilterEstimate {
   /// a view of the same object farther than mode_radius_deg: e.g. a mirror twin) and the share of
   /// the weight within mode_radius_deg of it (same object, outside the first mode). object = -1
   /// and mass = 0 when every particle is in the first mode.
-  struct RunnerUp {
-    int object = -1;
-    int view = -1;
-    double roll_deg = 0.0;
-    bool roll_known = false;
-    float score = 0.0f;
+  struct RunnerUp : Hypothesis {
     double mass = 0.0;
   } runner_up;
   /// The particle that scored highest on this frame (measured frames; a proposal, typically):
   /// what a search of the frame alone would report among the particles. object = -1 when not
   /// measured.
-  struct Top {
-    int object = -1;
-    int view = -1;
-    int shell = 0;
-    double roll_deg = 0.0;
-    bool roll_known = false;
-    float score = 0.0f;
-  } top;
+  Hypothesis top;
 };
 
 class ParticleFilter {
@@ -504,8 +502,8 @@ class ParticleFilter {
   /// Decides between two hypotheses of a measured frame by evidence the filter does not have
   /// (the tracker fits both models to the frame's outline): true if `challenger` explains the
   /// frame better than `chosen`. See SetArbiter.
-  using Arbiter =
-      std::function<bool(const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger)>;
+  using Arbiter = std::function<bool(const FilterEstimate::Hypothesis& chosen,
+                                     const FilterEstimate::Hypothesis& challenger)>;
   /// With an arbiter, in every measured frame in which the particle that scored highest lies
   /// outside the mode of the estimate rule's choice (another object, or a view farther than
   /// mode_radius_deg modulo symmetry) and scored higher than the choice, the arbiter is asked;

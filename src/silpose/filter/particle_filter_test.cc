@@ -215,16 +215,16 @@ TEST_F(ParticleFilterTest, ArbiterDecidesOnlyBetweenTheChoiceAndAHigherScoringOt
     return std::acos(std::clamp(c, -1.0, 1.0)) / kDegToRad;
   };
   struct Call {
-    FilterEstimate::Top chosen, challenger;
+    FilterEstimate::Hypothesis chosen, challenger;
   };
   const auto run = [&](bool with_arbiter, bool prefer_challenger, std::vector<Call>* calls) {
     ParticleFilter filter(Sphere(), *spectra_, options);
     if (with_arbiter) {
-      filter.SetArbiter(
-          [=](const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger) {
-            calls->push_back({chosen, challenger});
-            return prefer_challenger;
-          });
+      filter.SetArbiter([=](const FilterEstimate::Hypothesis& chosen,
+                            const FilterEstimate::Hypothesis& challenger) {
+        calls->push_back({chosen, challenger});
+        return prefer_challenger;
+      });
     }
     std::vector<FilterEstimate> estimates;
     for (const std::vector<float>& signature : signatures) {

@@ -102,10 +102,10 @@ Tracker::Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra
   if (!options_.brute_force) {
     filter_ = std::make_unique<ParticleFilter>(database_.sphere, *spectra_, options_.filter);
     if (options_.estimate_pose && options_.refine && options_.fit_arbitration_ratio > 0.0) {
-      filter_->SetArbiter(
-          [this](const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger) {
-            return ArbitrateByFit(chosen, challenger);
-          });
+      filter_->SetArbiter([this](const FilterEstimate::Hypothesis& chosen,
+                                 const FilterEstimate::Hypothesis& challenger) {
+        return ArbitrateByFit(chosen, challenger);
+      });
     }
   }
   for (const ModelViews& model : database_.models) equivalence_.emplace_back(model.symmetry);
@@ -171,13 +171,13 @@ const FrameOutline& Tracker::Outline(const TrackedFrame& tracked) {
   return *outline_;
 }
 
-bool Tracker::ArbitrateByFit(const FilterEstimate::Top& chosen,
-                             const FilterEstimate::Top& challenger) {
+bool Tracker::ArbitrateByFit(const FilterEstimate::Hypothesis& chosen,
+                             const FilterEstimate::Hypothesis& challenger) {
   if (current_ == nullptr) return false;
   const auto start = std::chrono::steady_clock::now();
   // The fit of a hypothesis: robust RMS outline distance (pixels) and IoU of the pose the
   // tracker would report for it, grid pose or refined.
-  const auto pose = [&](const FilterEstimate::Top& h, double* rms, double* iou) {
+  const auto pose = [&](const FilterEstimate::Hypothesis& h, double* rms, double* iou) {
     Posed& posed = posed_.emplace_back();
     posed.object = h.object;
     posed.view = h.view;

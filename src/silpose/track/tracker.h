@@ -196,7 +196,8 @@ class Tracker {
                     const std::function<double()>& lap);
   /// The filter's arbiter (ParticleFilter::SetArbiter): poses both hypotheses on the frame being
   /// processed, keeps them in posed_, and compares their fits.
-  bool ArbitrateByFit(const FilterEstimate::Top& chosen, const FilterEstimate::Top& challenger);
+  bool ArbitrateByFit(const FilterEstimate::Hypothesis& chosen,
+                      const FilterEstimate::Hypothesis& challenger);
   /// The outline of `tracked`'s mask, built once per frame.
   const FrameOutline& Outline(const TrackedFrame& tracked);
   /// Canonical forms of the result's pose and runner-up (TrackerOptions::canonical_poses).
