@@ -408,30 +408,26 @@ struct Particle {
   std::shared_ptr<const HistoryNode> history;
 };
 
-/// What one frame gave.
-struct FilterEstimate {
-  /// One hypothesis: a particle's object, view, distance shell, roll (0 while unknown) and score.
-  struct Hypothesis {
-    int object = -1;
-    int view = -1;
-    int shell = 0;
-    double roll_deg = 0.0;
-    bool roll_known = false;
-    float score = 0.0f;
-  };
-
-  int64_t frame = 0;
-  /// False for a prediction-only frame (no usable silhouette: Predict).
-  bool measured = false;
-  /// The particle the estimate rule chose (ParticleFilterOptions::estimate_rule): its object,
-  /// view, roll (0 while unknown), last correlation and weight.
+/// One hypothesis of the filter: a particle's object, view, the distance shell the view was
+/// measured in (ViewDatabase::ChooseShell for the frame's size), roll (0 while unknown) and last
+/// correlation score.
+struct FilterHypothesis {
   int object = -1;
   int view = -1;
-  /// Distance shell the view was measured in (ViewDatabase::ChooseShell for the frame's size).
   int shell = 0;
   double roll_deg = 0.0;
   bool roll_known = false;
   float score = 0.0f;
+};
+
+/// What one frame gave. Its FilterHypothesis fields are the particle the estimate rule chose
+/// (ParticleFilterOptions::estimate_rule); `weight` is that particle's weight.
+struct FilterEstimate : FilterHypothesis {
+  using Hypothesis = FilterHypothesis;
+
+  int64_t frame = 0;
+  /// False for a prediction-only frame (no usable silhouette: Predict).
+  bool measured = false;
   double weight = 0.0;
   /// The filter's angular speed |w| after this frame, degrees per frame (kAdaptive).
   double speed_deg = 0.0;
