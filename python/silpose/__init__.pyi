@@ -139,6 +139,7 @@ class TrackerOptions:
     refine: bool
     fit_arbitration_ratio: float
     fit_arbitration_margin_px: float
+    mirror_twin_check: bool
     canonical_poses: bool
     seed: int
     keep_history: bool

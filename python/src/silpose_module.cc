@@ -834,6 +834,11 @@ void BindTrack(py::module_& m) {
                      "other's (0.8; 0 = off, --no-fit-arbitration).")
       .def_readwrite("fit_arbitration_margin_px", &TrackerOptions::fit_arbitration_margin_px,
                      "... and lower by more than this many pixels (0.25).")
+      .def_readwrite("mirror_twin_check", &TrackerOptions::mirror_twin_check,
+                     "For an object with a mirror plane, also fit the mirror twin of the matched "
+                     "pose (the pose casting the same outline from far away) and report it when "
+                     "it fits clearly better, by the fit arbitration's rule (--no-twin-check: "
+                     "False).")
       .def_readwrite("canonical_poses", &TrackerOptions::canonical_poses,
                      "Report the poses of symmetric objects in canonical form "
                      "(--no-canonical-poses: False).")

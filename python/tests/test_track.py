@@ -121,6 +121,9 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
     silpose.TrackerOptions(fit_arbitration_ratio=0.0).check()
     with pytest.raises(silpose.Error, match="fit_arbitration_ratio"):
         silpose.TrackerOptions(fit_arbitration_ratio=1.5).check()
+    # The mirror-twin check: on by default, and can be switched off.
+    assert silpose.TrackerOptions().mirror_twin_check is True
+    assert silpose.TrackerOptions(mirror_twin_check=False).mirror_twin_check is False
     with pytest.raises(silpose.Error, match="TrackerOptions: unknown option 'segmnt'"):
         silpose.TrackerOptions(segmnt="bgsub")
     with pytest.raises(silpose.Error, match="'bgsubtraction'"):

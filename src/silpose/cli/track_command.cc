@@ -730,7 +730,11 @@ void AddTrackCommand(CLI::App& app) {
       "--no-fit-arbitration", [arguments] { arguments->tracker.fit_arbitration_ratio = 0.0; },
       "Let the scores alone decide when the frame's best-scoring hypothesis lies outside the "
       "filter's mode (by default both are refined and the better fit is reported; "
-      "docs/tracking.md)");
+      "docs/tracking.md); also turns off the mirror-twin check, which uses the same rule");
+  command->add_flag("!--no-twin-check", arguments->tracker.mirror_twin_check,
+                    "Report the matched pose of an object with a mirror plane without also "
+                    "fitting its mirror twin, the pose that casts the same outline from far away "
+                    "(docs/tracking.md)");
   command
       ->add_option("--min-confidence", arguments->tracker.state.min_confidence,
                    "Confidence from which a frame's state is 'tracking' (docs/confidence.md)")

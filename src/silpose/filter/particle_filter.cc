@@ -269,6 +269,36 @@ void ParticleFilter::UpdateVelocity(const FilterEstimate& estimate) {
   have_last_rotation_ = true;
 }
 
+void ParticleFilter::ReflectMode(int object, int view, const Eigen::Matrix3d& model_reflection) {
+  if (object < 0 || object >= num_objects_ || view < 0 || view >= num_views_) {
+    ThrowError("ReflectMode: object ", object, ", view ", view, " is not in the database");
+  }
+  const Eigen::Matrix3d f = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
+  const Eigen::Vector3d centre = sphere_.directions[static_cast<size_t>(view)];
+  for (Particle& p : particles_) {
+    if (p.object != object ||
+        same.AngleDeg(sphere_.directions[static_cast<size_t>(p.view)], centre) >
+            options_.mode_radius_deg) {
+      continue;
+    }
+    const Eigen::Vector3d& d = sphere_.directions[static_cast<size_t>(p.view)];
+    if (!p.roll_known) {
+      p.view = sphere_.NearestView(-(model_reflection * d));
+      continue;
+    }
+    const Eigen::Matrix3d twin = f * CameraFromObjectRotation(d, p.roll_deg) * model_reflection;
+    Eigen::Vector3d twin_view;
+    ViewAndRollFromRotation(twin, &twin_view, &p.roll_deg);
+    p.view = sphere_.NearestView(twin_view);
+  }
+  // F Exp(w) F = Exp(-F w): the velocity of the twin motion.
+  velocity_ = -(f * velocity_);
+  velocity_before_update_ = -(f * velocity_before_update_);
+  last_rotation_ = f * last_rotation_ * model_reflection;
+  previous_rotation_ = f * previous_rotation_ * model_reflection;
+}
+
 FilterEstimate ParticleFilter::Predict() { return Advance(nullptr); }
 
 FilterEstimate ParticleFilter::Advance(const SignatureSpectrum* frame) {

@@ -494,6 +494,16 @@ class ParticleFilter {
   void ObserveRotation(const Eigen::Matrix3d& camera_from_object_on_axis);
   /// One frame without a measurement (no usable silhouette): prediction, estimate, history.
   FilterEstimate Predict();
+  /// Moves a mode to its mirror twin, for when evidence the filter does not have (the tracker's
+  /// fit of both poses to the frame's outline) shows that the frame is the twin of the filter's
+  /// choice. `model_reflection` is the linear part of the object's mirror (I - 2 n n^T, model
+  /// frame). Every particle of `object` within mode_radius_deg of `view` (modulo symmetry) is
+  /// moved: its on-axis camera rotation R becomes F R A (F = diag(1, 1, -1), A the reflection),
+  /// which puts it at the database view nearest the twin direction -A d, with the roll that
+  /// rotation has (a particle without roll keeps none). The weights stay. The velocity and the
+  /// last estimate's rotation are reflected the same way, so that the next ObserveRotation (the
+  /// twin's refined pose) continues the motion. Call after Step, before the next frame.
+  void ReflectMode(int object, int view, const Eigen::Matrix3d& model_reflection);
 
   /// Decides between two hypotheses of a measured frame by evidence the filter does not have
   /// (the tracker fits both models to the frame's outline): true if `challenger` explains the

@@ -279,6 +279,62 @@ TEST_F(ParticleFilterTest, ArbiterDecidesOnlyBetweenTheChoiceAndAHigherScoringOt
   EXPECT_EQ(won, static_cast<int>(granted.size()));
 }
 
+TEST_F(ParticleFilterTest, ReflectModeMovesTheModeToItsMirrorTwinAndNothingElse) {
+  const std::vector<TruePose> path = SmoothPath(63, 1, 12);
+  ParticleFilterOptions options;
+  options.seed = 9;
+  ParticleFilter filter(Sphere(), *spectra_, options);
+  FilterEstimate estimate;
+  for (const TruePose& pose : path) estimate = filter.Step(Signature(pose));
+  ASSERT_EQ(estimate.object, 1);
+  // A mirror plane with a generic normal.
+  const Eigen::Vector3d n = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+  const Eigen::Matrix3d a = Eigen::Matrix3d::Identity() - 2.0 * n * n.transpose();
+  const Eigen::Matrix3d f = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  const std::vector<Particle> before = filter.particles();
+  filter.ReflectMode(estimate.object, estimate.view, a);
+  const std::vector<Particle>& after = filter.particles();
+  ASSERT_EQ(after.size(), before.size());
+  const auto direction = [](int view) { return Sphere().directions[static_cast<size_t>(view)]; };
+  const Eigen::Vector3d centre = direction(estimate.view);
+  const double spacing_deg = Sphere().typical_spacing_rad / kDegToRad;
+  int moved = 0;
+  for (size_t i = 0; i < after.size(); ++i) {
+    const Particle& p = before[i];
+    const Particle& q = after[i];
+    EXPECT_EQ(q.object, p.object);
+    EXPECT_EQ(q.weight, p.weight);
+    EXPECT_EQ(q.roll_known, p.roll_known);
+    const bool in_mode =
+        p.object == estimate.object &&
+        std::acos(std::clamp(direction(p.view).dot(centre), -1.0, 1.0)) / kDegToRad <=
+            options.mode_radius_deg;
+    if (!in_mode) {
+      EXPECT_EQ(q.view, p.view);
+      EXPECT_EQ(q.roll_deg, p.roll_deg);
+      continue;
+    }
+    ++moved;
+    // At the database view nearest the twin direction -A d ...
+    const Eigen::Vector3d twin = -(a * direction(p.view));
+    EXPECT_EQ(q.view, Sphere().NearestView(twin));
+    EXPECT_LT(std::acos(std::clamp(direction(q.view).dot(twin), -1.0, 1.0)) / kDegToRad,
+              spacing_deg);
+    if (!p.roll_known) continue;
+    // ... with the roll of F R A: up to the grid's offset of the view, the same rotation.
+    const Eigen::Matrix3d expected = f * CameraFromObjectRotation(direction(p.view), p.roll_deg) * a;
+    const Eigen::Matrix3d got = CameraFromObjectRotation(direction(q.view), q.roll_deg);
+    EXPECT_LT(Eigen::AngleAxisd(Eigen::Matrix3d(expected.transpose() * got)).angle() / kDegToRad,
+              1.5 * spacing_deg);
+  }
+  EXPECT_GT(moved, static_cast<int>(after.size()) / 4);
+  // The filter goes on from there.
+  const FilterEstimate next = filter.Step(Signature(path.back()));
+  EXPECT_TRUE(next.measured);
+  EXPECT_THROW(filter.ReflectMode(5, 0, a), Error);
+  EXPECT_THROW(filter.ReflectMode(0, -1, a), Error);
+}
+
 TEST_F(ParticleFilterTest, ProposalCoversEveryObjectOnlyWhenTheParticlesLoseTheFrame) {
   // Object 0 for 20 frames, then object 2: the switch is a frame the particles lose.
   std::vector<TruePose> path = SmoothPath(50, 0, 20);

@@ -38,6 +38,25 @@ Eigen::Vector3d FixedPerpendicular(const Eigen::Vector3d& axis) {
   return axis.cross(Eigen::Vector3d::Unit(least)).normalized();
 }
 
+Rigid3 MirrorTwinPose(const Rigid3& camera_from_object, const MirrorSymmetry& mirror,
+                      const Eigen::Vector3d& centre_in_object) {
+  // The mirror in the model frame: x -> A x + b.
+  const Eigen::Vector3d n = mirror.normal.normalized();
+  const Eigen::Matrix3d a = Eigen::Matrix3d::Identity() - 2.0 * n * n.transpose();
+  const Eigen::Vector3d b = 2.0 * mirror.offset.dot(n) * n;
+  // The reflection along the line of sight u through the centre c: p -> H p + 2 (c . u) u.
+  const Eigen::Vector3d centre = camera_from_object * centre_in_object;
+  const double depth = centre.norm();
+  if (!(depth > 0.0)) ThrowError("MirrorTwinPose: the object centre is at the camera centre");
+  const Eigen::Vector3d u = centre / depth;
+  const Eigen::Matrix3d h = Eigen::Matrix3d::Identity() - 2.0 * u * u.transpose();
+  Rigid3 twin;
+  twin.rotation = h * camera_from_object.rotation * a;
+  twin.translation = h * (camera_from_object.rotation * b + camera_from_object.translation) +
+                     2.0 * depth * u;
+  return twin;
+}
+
 std::string ObjectSymmetry::Describe() const {
   if (!HasRotations() && mirrors.empty()) return "none";
   std::ostringstream out;

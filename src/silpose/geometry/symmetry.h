@@ -48,6 +48,19 @@ struct MirrorSymmetry {
   }
 };
 
+/// The mirror twin of a pose: the pose at which a mirror-symmetric object shows, to a far-away
+/// camera, the outline it shows at `camera_from_object` (x_cam = R x + t). The object is reflected
+/// in `mirror` (which maps it onto itself) and then in the plane through the camera point of
+/// `centre_in_object` perpendicular to the line of sight to it; the result is a proper rigid
+/// motion. Seen along that line of sight, every point of the twin pose lies in front of or behind
+/// the matching point of the original, so under a perspective camera the two outlines differ only
+/// by the perspective. A centre on the mirror plane stays where it is, and the twin of the twin
+/// is the pose itself. The camera direction (model frame) of the twin is mirror.TwinView of the
+/// original's when the centre lies on the optical axis. `centre_in_object` must not be at the
+/// camera centre.
+Rigid3 MirrorTwinPose(const Rigid3& camera_from_object, const MirrorSymmetry& mirror,
+                      const Eigen::Vector3d& centre_in_object);
+
 /// Every symmetry found for (or given to) one object.
 struct ObjectSymmetry {
   /// Most entries of each kind (Check).

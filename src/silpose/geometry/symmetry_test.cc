@@ -188,3 +188,61 @@ TEST(Symmetry, MirrorTwinViewIsTheReflectedReversedDirection) {
 
 }  // namespace
 }  // namespace silpose
+
+namespace silpose {
+namespace {
+
+TEST(Symmetry, MirrorTwinPoseShowsTheSameOutlineAlongTheLineOfSight) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  const auto random_vector = [&] { return Eigen::Vector3d(normal(rng), normal(rng), normal(rng)); };
+  for (int trial = 0; trial < 20; ++trial) {
+    // A mirror plane through o with normal n, and points of a mirror-symmetric object in pairs.
+    MirrorSymmetry mirror;
+    mirror.normal = random_vector();
+    mirror.offset = random_vector();
+    const Eigen::Vector3d n = mirror.normal.normalized();
+    const auto reflect = [&](const Eigen::Vector3d& x) {
+      return Eigen::Vector3d(x - 2.0 * (x - mirror.offset).dot(n) * n);
+    };
+    // The object's centre, on the plane.
+    const Eigen::Vector3d off = mirror.offset + random_vector();
+    const Eigen::Vector3d on_plane = off - (off - mirror.offset).dot(n) * n;
+    Rigid3 pose;
+    pose.rotation = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    // On or off the optical axis, 10 units from the camera.
+    const Eigen::Vector3d where =
+        Eigen::Vector3d(0.3 * normal(rng), 0.3 * normal(rng), 1.0).normalized() * 10.0;
+    pose.translation = where - pose.rotation * on_plane;
+    const Rigid3 twin = MirrorTwinPose(pose, mirror, on_plane);
+
+    EXPECT_NEAR(twin.rotation.determinant(), 1.0, 1e-9);
+    EXPECT_TRUE((twin.rotation.transpose() * twin.rotation).isApprox(Eigen::Matrix3d::Identity(),
+                                                                       1e-9));
+    EXPECT_TRUE((twin * on_plane).isApprox(pose * on_plane, 1e-9)) << "the centre moved";
+    const Rigid3 back = MirrorTwinPose(twin, mirror, on_plane);
+    EXPECT_TRUE(back.rotation.isApprox(pose.rotation, 1e-9));
+    EXPECT_TRUE(back.translation.isApprox(pose.translation, 1e-9));
+    // Each point of the twin pose lies on the line of sight (parallel to the centre's) through
+    // the mirrored point at the original pose: the far-away camera's outlines are the same.
+    const Eigen::Vector3d u = where.normalized();
+    for (int i = 0; i < 10; ++i) {
+      const Eigen::Vector3d x = on_plane + random_vector();
+      const Eigen::Vector3d difference = twin * x - pose * reflect(x);
+      EXPECT_LT(difference.cross(u).norm(), 1e-9 * (1.0 + difference.norm()));
+    }
+    // The twin's camera direction (model frame) is the twin view of the original's when the
+    // centre is on the optical axis.
+    if (trial == 0) {
+      Rigid3 on_axis = pose;
+      on_axis.translation = Eigen::Vector3d(0.0, 0.0, 10.0) - pose.rotation * on_plane;
+      const Rigid3 t = MirrorTwinPose(on_axis, mirror, on_plane);
+      const Eigen::Vector3d d = -(on_axis.rotation.transpose() * Eigen::Vector3d::UnitZ());
+      const Eigen::Vector3d d_twin = -(t.rotation.transpose() * Eigen::Vector3d::UnitZ());
+      EXPECT_TRUE(d_twin.isApprox(mirror.TwinView(d), 1e-9));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace silpose

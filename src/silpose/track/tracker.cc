@@ -128,7 +128,6 @@ bool Improves(const ContourRefinementResult& refined) {
 }  // namespace
 
 void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
-  FrameResult& result = tracked->result;
   SilhouettePose& pose = *tracked->pose;
   const FrameOutline& outline = Outline(*tracked);
   ContourRefinementResult refined =
@@ -138,6 +137,13 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
     tracked->refinement->camera_from_object = pose.camera_from_object;
     return;
   }
+  Adopt(mesh, std::move(refined), tracked, feed_filter);
+}
+
+void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
+                    TrackedFrame* tracked, bool feed_filter) {
+  FrameResult& result = tracked->result;
+  SilhouettePose& pose = *tracked->pose;
   const Eigen::Vector3d centre(mesh.Centre());
   const Eigen::Vector3d centre_in_camera =
       refined.camera_from_object.rotation * centre + refined.camera_from_object.translation;
@@ -203,6 +209,111 @@ bool Tracker::ArbitrateByFit(const FilterEstimate::Hypothesis& chosen,
   return chosen_fits && challenger_rms < options_.fit_arbitration_ratio * chosen_rms &&
          chosen_rms - challenger_rms > options_.fit_arbitration_margin_px &&
          challenger_iou >= chosen_iou;
+}
+
+namespace {
+
+// The mirror-twin check's screen: a twin is refined only if its fit before refinement (robust RMS)
+// is below kTwinScreenRatio times the reported pose's plus kTwinScreenSlackPx. Chosen on the tuning
+// models: it skips nearly two thirds of the twins and none that won (the largest such start was
+// 2.09 times the reported pose's RMS); 1.5 lost some.
+constexpr double kTwinScreenRatio = 2.0;
+constexpr double kTwinScreenSlackPx = 0.5;
+
+}  // namespace
+
+bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view) {
+  FrameResult& result = tracked->result;
+  const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
+  if (model.symmetry.mirrors.empty() || model.mesh.triangles.empty() || !tracked->pose ||
+      !tracked->refinement || tracked->refinement->points_used < 6) {
+    return false;
+  }
+  const ContourRefinementResult& own = *tracked->refinement;
+  const double own_rms = std::min(own.final_rms_px, own.initial_rms_px);
+  if (!std::isfinite(own_rms)) return false;
+  const Rigid3 reported = tracked->pose->camera_from_object;
+  const Eigen::Vector3d centre(model.mesh.Centre());
+  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(result.object);
+  std::optional<ContourRefinementResult> best;
+  double best_rms = 0.0;
+  size_t best_mirror = 0;
+  for (size_t m = 0; m < model.symmetry.mirrors.size(); ++m) {
+    Rigid3 start;
+    try {
+      start = MirrorTwinPose(reported, model.symmetry.mirrors[m], centre);
+    } catch (const Error&) {
+      return false;
+    }
+    // A twin that is the same pose modulo the object's rotations (a bearing's) is no other pose.
+    if (RotationErrorModuloSymmetryDeg(start.rotation, reported.rotation, transforms) <=
+        options_.filter.mode_radius_deg) {
+      continue;
+    }
+    // A screen first: the fit at the twin pose itself (one iteration, no IoU). Near the camera
+    // perspective makes the twin fit far worse than the reported pose; such a twin is not
+    // refined.
+    ContourRefinementOptions screen = options_.refinement;
+    screen.max_iterations = 1;
+    screen.compute_iou = false;
+    const ContourRefinementResult first =
+        RefinePoseToContour(model.mesh, camera_, Outline(*tracked), start, screen);
+    if (first.points_used < 6 ||
+        !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
+      continue;
+    }
+    ContourRefinementResult twin = RefinePoseToContour(model.mesh, camera_, Outline(*tracked),
+                                                       start, options_.refinement);
+    if (twin.points_used < 6) continue;
+    if (!Improves(twin)) twin.camera_from_object = start;
+    const double rms = std::min(twin.final_rms_px, twin.initial_rms_px);
+    if (std::isfinite(rms) && rms < options_.fit_arbitration_ratio * own_rms &&
+        own_rms - rms > options_.fit_arbitration_margin_px && twin.iou >= own.iou &&
+        (!best || rms < best_rms)) {
+      best = std::move(twin);
+      best_rms = rms;
+      best_mirror = m;
+    }
+  }
+  if (!best) return false;
+  // A reported pose whose refinement stopped far from the outline (a first frame's coarse
+  // guess) can fit worse than its twin although the twin is wrong: the twin's own twin, refined,
+  // is then the reported hypothesis at its best, and the twin must beat that too.
+  const MirrorSymmetry& mirror = model.symmetry.mirrors[best_mirror];
+  if (!((best->camera_from_object * centre).z() > 0.0)) return false;
+  const Rigid3 back_start = MirrorTwinPose(best->camera_from_object, mirror, centre);
+  ContourRefinementResult back = RefinePoseToContour(model.mesh, camera_, Outline(*tracked),
+                                                     back_start, options_.refinement);
+  if (!Improves(back)) back.camera_from_object = back_start;
+  const double back_rms = std::min(back.final_rms_px, back.initial_rms_px);
+  if (back.points_used >= 6 && std::isfinite(back_rms) &&
+      !(best_rms < options_.fit_arbitration_ratio * back_rms &&
+        back_rms - best_rms > options_.fit_arbitration_margin_px && best->iou >= back.iou)) {
+    // Not the twin (the reported pose is kept: a refinement from elsewhere may find another
+    // local minimum that fits a little better and is wrong).
+    return false;
+  }
+  // The frame is the twin of the reported hypothesis: the filter's mode moves there too.
+  const int old_view = *view;
+  const Eigen::Vector3d n = mirror.normal.normalized();
+  if (filter_ && feed_filter && old_view >= 0) {
+    filter_->ReflectMode(result.object, old_view,
+                         Eigen::Matrix3d::Identity() - 2.0 * n * n.transpose());
+  }
+  Adopt(model.mesh, std::move(*best), tracked, feed_filter);
+  if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
+  tracked->mirror_twin_fitted = true;
+  return true;
+}
+
+const std::vector<Rigid3>& Tracker::SymmetryTransformsOf(int object) {
+  pose_gap_transforms_.resize(database_.models.size());
+  std::vector<Rigid3>& transforms = pose_gap_transforms_[static_cast<size_t>(object)];
+  if (transforms.empty()) {
+    // Sampled every 5 % of the diameter (a few degrees): fine enough for a 15 degree test.
+    transforms = SymmetryTransforms(database_.models[static_cast<size_t>(object)].symmetry, 0.05);
+  }
+  return transforms;
 }
 
 bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin) {
@@ -290,12 +401,7 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   }
   // The reported view at other rolls: the local maxima of its correlation, best first, beyond the
   // radius of rotation modulo the object's symmetry.
-  pose_gap_transforms_.resize(database_.models.size());
-  std::vector<Rigid3>& transforms = pose_gap_transforms_[static_cast<size_t>(object)];
-  if (transforms.empty()) {
-    // Sampled every 5 % of the diameter (a few degrees): fine enough for a 15 degree test.
-    transforms = SymmetryTransforms(database_.models[static_cast<size_t>(object)].symmetry, 0.05);
-  }
+  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
   const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
   correlation_.resize(static_cast<size_t>(length));
   matcher_->correlator().Correlate(twin_query_, spectra_->Get(object, view, shell), correlation_);
@@ -705,6 +811,15 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       EstimatePose(view, shell, /*feed_filter=*/true, &tracked, lap);
       result.time_refine_ms += arbitration_ms_;
     }
+  }
+  if (options_.mirror_twin_check && options_.estimate_pose && options_.refine && usable &&
+      result.object >= 0 && tracked.refinement) {
+    // The twin's fit counts as refinement.
+    lap();
+    const int matched_view = view;
+    FitMirrorTwins(&tracked, /*feed_filter=*/true, &view);
+    if (view != matched_view) shell = database_.ChooseShell(result.object, view, apparent_radius);
+    result.time_refine_ms += lap();
   }
   Assess(&tracked, usable, radii, view, shell);
   Canonicalise(&result, /*runner_up=*/true);

@@ -81,6 +81,13 @@ struct TrackerOptions {
   /// About the RMS outline distance of the right pose on a perfectly segmented frame (0.15-0.35
   /// px): a smaller difference is pixel noise, not evidence.
   double fit_arbitration_margin_px = 0.25;
+  /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
+  /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
+  /// database's views cannot tell apart from far away) is refined against the frame's outline
+  /// too, and reported instead when it fits clearly better by the fit arbitration's rule
+  /// (fit_arbitration_ratio and _margin_px; not with ratio 0). In filter mode, the filter's
+  /// mode moves to the twin. Off: the matched pose's refinement is reported.
+  bool mirror_twin_check = true;
   /// Report the poses of symmetric objects in canonical form (geometry/symmetry.h,
   /// docs/symmetry.md): of the poses that look alike by the object's symmetries, the one whose
   /// camera direction lies in a fixed sector of the object. Off: the pose as matched.
@@ -127,6 +134,9 @@ struct TrackedFrame {
     float reported_score = 0.0f;
   };
   std::optional<MirrorTwin> mirror_twin;
+  /// The mirror-twin check (TrackerOptions::mirror_twin_check) found that the mirror twin of the
+  /// matched pose explains the outline clearly better, and the twin's refined pose is reported.
+  bool mirror_twin_fitted = false;
 };
 
 /// Puts `result`'s pose, view direction and roll in canonical form for an object with
@@ -188,6 +198,20 @@ class Tracker {
  private:
   /// `feed_filter`: the refined rotation updates the filter's velocity (Process, not Revise).
   void Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter);
+  /// Reports the refined pose `refined` (with the view and roll it means); `feed_filter`: it
+  /// updates the filter's velocity.
+  void Adopt(const TriangleMesh& mesh, ContourRefinementResult refined, TrackedFrame* tracked,
+             bool feed_filter);
+  /// The mirror-twin check (TrackerOptions::mirror_twin_check) of a refined frame: each mirror
+  /// twin pose of the reported pose (geometry/symmetry.h, MirrorTwinPose) that is another pose
+  /// modulo the object's rotations is refined against the outline; the best one that fits
+  /// clearly better (the fit arbitration's rule) than the reported pose, and than the reported
+  /// hypothesis refined again from the twin's twin, is reported instead, `view` becomes its
+  /// database view, and (feed_filter) the filter's mode moves to the twin: true. Otherwise
+  /// nothing changes: false.
+  bool FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view);
+  /// The object's symmetry transforms, coarsely sampled (made when first needed).
+  const std::vector<Rigid3>& SymmetryTransformsOf(int object);
   Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra,
           const PinholeCamera& camera, const TrackerOptions& options);
   /// The pose (and refinement) of tracked->result's object as database view `view` in distance
@@ -240,7 +264,7 @@ class Tracker {
   /// Per model: views alike by its rotational symmetries.
   std::vector<ViewEquivalence> equivalence_;
   SignatureSpectrum twin_query_;
-  /// Per model: its symmetry transforms, coarsely sampled (ScorePoseGap; made when first needed).
+  /// Per model: its symmetry transforms, coarsely sampled (SymmetryTransformsOf).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;
   std::vector<float> correlation_;
   std::vector<std::pair<float, int>> ranked_;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -422,7 +423,9 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   // reports the filter's choice, and its refined outline distance is what the challenger's beat.
   TrackerOptions off;
   off.fit_arbitration_ratio = 0.0;
-  const TrackerOptions on;
+  // The arbitration alone (its rule also decides the mirror-twin check, tested below).
+  TrackerOptions on;
+  on.mirror_twin_check = false;
   int frames_arbitrated = 0;
   for (const uint64_t seed : {1, 2, 3, 4}) {
     for (const char* name : {"cow", "hand"}) {
@@ -471,6 +474,87 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   }
   // Threshold-like masks make such frames common: the first sequence already has one.
   EXPECT_EQ(frames_arbitrated, 1);
+}
+
+TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
+  // The cow (one mirror plane) on orbits at 12 radii, about 200 px across: far enough that a
+  // view and its mirror twin cast nearly the same outline, so that the database's views often
+  // match the twin, and near enough that the refined twin poses fit the outline differently.
+  for (const bool brute_force : {true, false}) {
+    SCOPED_TRACE(brute_force ? "brute force" : "filter");
+    TrackerOptions on;
+    on.brute_force = brute_force;
+    TrackerOptions off = on;
+    off.mirror_twin_check = false;
+    int flips = 0, wrong_with = 0, wrong_without = 0;
+    // Orbits (start, tilt) on which the filter without the check takes the wrong twin at times.
+    for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
+      SequenceOptions sequence_options;
+      sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
+      sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
+      sequence_options.trajectory.num_frames = 40;
+      sequence_options.trajectory.orbit.step_deg = 3.0;
+      sequence_options.trajectory.orbit.start_deg = start_deg;
+      sequence_options.trajectory.orbit.tilt_deg = tilt_deg;
+      sequence_options.trajectory.orbit.distance_in_radii = 12.0;
+      const SyntheticSequence sequence({LoadMesh(kModels / "cow.obj")}, sequence_options);
+      Tracker with(Database(), sequence.camera(), on);
+      Tracker without(Database(), sequence.camera(), off);
+      bool flipped = false;
+      Eigen::Vector3d flipped_view = Eigen::Vector3d::Zero();
+      for (int f = 0; f < sequence.num_frames(); ++f) {
+        const SyntheticFrame frame = sequence.Generate(f);
+        const TrackedFrame a = with.Process(frame.mask);
+        const TrackedFrame b = without.Process(frame.mask);
+        ASSERT_EQ(a.result.object, 0) << f;
+        ASSERT_TRUE(a.result.camera_from_object && b.result.camera_from_object) << f;
+        const Eigen::Matrix3d& truth = frame.truth.camera_from_object.rotation;
+        const double error_a = RotationErrorDeg(a.result.camera_from_object->rotation, truth);
+        const double error_b = RotationErrorDeg(b.result.camera_from_object->rotation, truth);
+        // On the wrong twin: a pose far from the truth (the twins of these views are more than
+        // 60 degrees apart), which the refinement alone does not leave.
+        wrong_with += error_a > 30.0;
+        wrong_without += error_b > 30.0;
+        EXPECT_FALSE(b.mirror_twin_fitted);
+        if (flipped) {
+          // The frame after a flip: the filter's particles were moved to the twin, so its
+          // estimate lies near the view reported then, not back on the other twin.
+          ASSERT_TRUE(a.estimate.has_value());
+          const Eigen::Vector3d& estimated =
+              Database().sphere.directions[static_cast<size_t>(a.estimate->view)];
+          EXPECT_LT(std::acos(std::clamp(estimated.dot(flipped_view), -1.0, 1.0)) * 180.0 /
+                        std::numbers::pi,
+                    2.0 * SpacingDeg())
+              << f;
+          flipped = false;
+        }
+        if (!a.mirror_twin_fitted) continue;
+        ++flips;
+        // The reported twin is the right pose.
+        EXPECT_LT(error_a, 10.0) << f;
+        ASSERT_TRUE(a.refinement.has_value());
+        if (brute_force) {
+          // Matched alone, the frame without the check reports the matched pose, the wrong
+          // twin, and the reported twin fits the outline better than it by the rule.
+          EXPECT_GT(error_b, 30.0) << f;
+          ASSERT_TRUE(b.refinement.has_value());
+          const auto fit = [](const ContourRefinementResult& r) {
+            return std::min(r.final_rms_px, r.initial_rms_px);
+          };
+          EXPECT_LT(fit(*a.refinement), on.fit_arbitration_ratio * fit(*b.refinement)) << f;
+          EXPECT_GT(fit(*b.refinement) - fit(*a.refinement), on.fit_arbitration_margin_px) << f;
+          EXPECT_GE(a.refinement->iou, b.refinement->iou) << f;
+        } else {
+          flipped = true;
+          flipped_view = *a.result.view_dir_in_object;
+        }
+      }
+    }
+    // Without the check some frames are on the wrong twin; with it, at most half as many.
+    EXPECT_GT(wrong_without, brute_force ? 10 : 4);
+    EXPECT_GT(flips, 0);
+    EXPECT_LE(2 * wrong_with, wrong_without);
+  }
 }
 
 TEST(Tracker, CanonicalFormIsAnEquivalentPoseSharedByAllEquivalentPoses) {
