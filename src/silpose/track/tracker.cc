@@ -601,6 +601,14 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
           directions[static_cast<size_t>(estimate.view)]) <= options_.filter.mode_radius_deg) {
     return frame;
   }
+  // Nor when it is the pose the frame reported (the mirror-twin check may have reported another
+  // view than the filter's estimate).
+  if (state.object == frame.result.object && frame.result.view_dir_in_object &&
+      equivalence_[static_cast<size_t>(state.object)].AngleDeg(
+          directions[static_cast<size_t>(state.view)], *frame.result.view_dir_in_object) <=
+          options_.filter.mode_radius_deg) {
+    return frame;
+  }
   if (frame.segmentation.mask.empty())
     ThrowError("Revise: frame ", frame.result.frame, " has no segmentation mask");
 
@@ -618,6 +626,7 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
   revised.pose.reset();
   revised.refinement.reset();
   revised.mirror_twin.reset();
+  revised.mirror_twin_fitted = false;
   result.camera_from_object.reset();
   result.iou = std::nan("");
   for (const char* suffix : {"-cut-by-border-no-pose", "-no-pose"}) {
@@ -633,6 +642,12 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
                                              std::sqrt(camera_.focal_x_px * camera_.focal_y_px);
     const int shell = database_.ChooseShell(state.object, state.view, apparent_radius);
     EstimatePose(state.view, shell, /*feed_filter=*/false, &revised, [] { return 0.0; });
+    // The mirror-twin check, as the frame had when it was processed: a history that holds the
+    // twin the check corrected live must not bring it back.
+    if (options_.mirror_twin_check && options_.refine && revised.refinement) {
+      int view = state.view;
+      FitMirrorTwins(&revised, /*feed_filter=*/false, &view);
+    }
     // The times stay those of the frame's processing.
     result.time_pose_ms = before.time_pose_ms;
     result.time_refine_ms = before.time_refine_ms;

@@ -183,11 +183,14 @@ class Tracker {
 
   /// An earlier frame of this stream (as Process returned it, with its segmentation mask)
   /// re-posed as the hypothesis `state` (object, database view, roll), as a smoother decides with
-  /// hindsight. Returned unchanged when `state` is the frame's own hypothesis (the same object, and
-  /// a view within the filter's mode radius modulo the object's rotational symmetry), has no roll
-  /// yet, or the frame had no measured silhouette or no filter estimate. Otherwise the result
-  /// takes the state's object, view, roll and score, and the object's probability in that frame;
-  /// the 6-DOF pose, its refinement, the fit (iou) and the confidence are computed again; the
+  /// hindsight. Returned unchanged when `state` is the frame's own hypothesis or the pose it
+  /// reported (the same object, and a view within the filter's mode radius, modulo the object's
+  /// rotational symmetry, of the filter's estimate or of the reported view), has no roll yet, or
+  /// the frame had no measured silhouette or no filter estimate. Otherwise the result takes the
+  /// state's object, view, roll and score, and the object's probability in that frame; the 6-DOF
+  /// pose, its refinement and the mirror-twin check (TrackerOptions::mirror_twin_check, which
+  /// may report the twin instead, as in Process), the fit (iou) and the confidence are computed
+  /// again; the
   /// state stays what it was, except that tracking and ambiguous are decided again by the
   /// confidence threshold and the mirror-twin rule (track/confidence.h); and the runner-up becomes
   /// the frame's former hypothesis (its mass NaN). The filter, the state rules' memory and the

@@ -561,6 +561,58 @@ TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
   }
 }
 
+TEST(Tracker, ReviseRunsTheMirrorTwinCheckSoASmoothedFrameKeepsTheTwinItCorrected) {
+  // The smoothing re-poses frames at the views their particle histories hold; a history may hold
+  // the wrong twin that the mirror-twin check corrected live. Re-posed there, the frame must come
+  // back to the corrected pose; without the check it stays on the wrong twin.
+  TrackerOptions on;
+  TrackerOptions off = on;
+  off.mirror_twin_check = false;
+  int revised_frames = 0;
+  for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
+    SequenceOptions sequence_options;
+    sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
+    sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
+    sequence_options.trajectory.num_frames = 40;
+    sequence_options.trajectory.orbit.step_deg = 3.0;
+    sequence_options.trajectory.orbit.start_deg = start_deg;
+    sequence_options.trajectory.orbit.tilt_deg = tilt_deg;
+    sequence_options.trajectory.orbit.distance_in_radii = 12.0;
+    const SyntheticSequence sequence({LoadMesh(kModels / "cow.obj")}, sequence_options);
+    Tracker with(Database(), sequence.camera(), on);
+    Tracker without(Database(), sequence.camera(), off);
+    for (int f = 0; f < sequence.num_frames(); ++f) {
+      const SyntheticFrame frame = sequence.Generate(f);
+      const TrackedFrame live = with.Process(frame.mask);
+      without.Process(frame.mask);
+      if (!live.mirror_twin_fitted) continue;
+      ASSERT_TRUE(live.estimate.has_value());
+      ASSERT_TRUE(live.result.camera_from_object && live.result.view_dir_in_object);
+      const Eigen::Matrix3d& truth = frame.truth.camera_from_object.rotation;
+      ASSERT_LT(RotationErrorDeg(live.result.camera_from_object->rotation, truth), 10.0) << f;
+      // A history at the filter's estimate, the wrong twin, in a frame whose estimate was
+      // elsewhere (the reported twin), so that Revise re-poses it.
+      PoseState wrong;
+      wrong.object = live.estimate->object;
+      wrong.view = live.estimate->view;
+      wrong.roll_deg = live.estimate->roll_deg;
+      wrong.roll_known = true;
+      wrong.score = live.estimate->score;
+      TrackedFrame moved = live;
+      moved.estimate->view = Database().sphere.NearestView(*live.result.view_dir_in_object);
+      const TrackedFrame revised = with.Revise(moved, wrong);
+      const TrackedFrame plain = without.Revise(moved, wrong);
+      ASSERT_TRUE(revised.result.camera_from_object && plain.result.camera_from_object) << f;
+      EXPECT_TRUE(revised.mirror_twin_fitted) << f;
+      EXPECT_LT(RotationErrorDeg(revised.result.camera_from_object->rotation, truth), 10.0) << f;
+      EXPECT_FALSE(plain.mirror_twin_fitted) << f;
+      EXPECT_GT(RotationErrorDeg(plain.result.camera_from_object->rotation, truth), 30.0) << f;
+      ++revised_frames;
+    }
+  }
+  EXPECT_GT(revised_frames, 0);
+}
+
 TEST(Tracker, CanonicalFormIsAnEquivalentPoseSharedByAllEquivalentPoses) {
   // A bearing-like object: continuous about y through c, with a flip about x.
   const Eigen::Vector3d c(0.0, 1.0, 0.5);
