@@ -568,7 +568,7 @@ TEST(Tracker, ReviseRunsTheMirrorTwinCheckSoASmoothedFrameKeepsTheTwinItCorrecte
   TrackerOptions on;
   TrackerOptions off = on;
   off.mirror_twin_check = false;
-  int revised_frames = 0;
+  int revised_frames = 0, wrong_without_check = 0;
   for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
     SequenceOptions sequence_options;
     sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
@@ -603,14 +603,19 @@ TEST(Tracker, ReviseRunsTheMirrorTwinCheckSoASmoothedFrameKeepsTheTwinItCorrecte
       const TrackedFrame revised = with.Revise(moved, wrong);
       const TrackedFrame plain = without.Revise(moved, wrong);
       ASSERT_TRUE(revised.result.camera_from_object && plain.result.camera_from_object) << f;
-      EXPECT_TRUE(revised.mirror_twin_fitted) << f;
       EXPECT_LT(RotationErrorDeg(revised.result.camera_from_object->rotation, truth), 10.0) << f;
       EXPECT_FALSE(plain.mirror_twin_fitted) << f;
-      EXPECT_GT(RotationErrorDeg(plain.result.camera_from_object->rotation, truth), 30.0) << f;
+      if (RotationErrorDeg(plain.result.camera_from_object->rotation, truth) > 30.0) {
+        // Re-posed without the check the frame is on the wrong twin again; with it, the twin
+        // was taken.
+        EXPECT_TRUE(revised.mirror_twin_fitted) << f;
+        ++wrong_without_check;
+      }
       ++revised_frames;
     }
   }
   EXPECT_GT(revised_frames, 0);
+  EXPECT_GT(wrong_without_check, 0);
 }
 
 TEST(Tracker, CanonicalFormIsAnEquivalentPoseSharedByAllEquivalentPoses) {
