@@ -476,10 +476,24 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   EXPECT_EQ(frames_arbitrated, 1);
 }
 
+// The cow (one mirror plane) on a 40-frame orbit at 12 radii, 3 degrees per frame, about 200 px
+// across: far enough that a view and its mirror twin cast nearly the same outline, so that the
+// database's views often match the twin, and near enough that the refined twin poses fit the
+// outline differently.
+SyntheticSequence FarCowOrbit(double start_deg, double tilt_deg) {
+  SequenceOptions sequence_options;
+  sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
+  sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
+  sequence_options.trajectory.num_frames = 40;
+  sequence_options.trajectory.orbit.step_deg = 3.0;
+  sequence_options.trajectory.orbit.start_deg = start_deg;
+  sequence_options.trajectory.orbit.tilt_deg = tilt_deg;
+  sequence_options.trajectory.orbit.distance_in_radii = 12.0;
+  return SyntheticSequence({LoadMesh(kModels / "cow.obj")}, sequence_options);
+}
+
 TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
-  // The cow (one mirror plane) on orbits at 12 radii, about 200 px across: far enough that a
-  // view and its mirror twin cast nearly the same outline, so that the database's views often
-  // match the twin, and near enough that the refined twin poses fit the outline differently.
+  // FarCowOrbit: the database's views often match the mirror twin.
   for (const bool brute_force : {true, false}) {
     SCOPED_TRACE(brute_force ? "brute force" : "filter");
     TrackerOptions on;
@@ -489,15 +503,7 @@ TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
     int flips = 0, wrong_with = 0, wrong_without = 0;
     // Orbits (start, tilt) on which the filter without the check takes the wrong twin at times.
     for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
-      SequenceOptions sequence_options;
-      sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
-      sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
-      sequence_options.trajectory.num_frames = 40;
-      sequence_options.trajectory.orbit.step_deg = 3.0;
-      sequence_options.trajectory.orbit.start_deg = start_deg;
-      sequence_options.trajectory.orbit.tilt_deg = tilt_deg;
-      sequence_options.trajectory.orbit.distance_in_radii = 12.0;
-      const SyntheticSequence sequence({LoadMesh(kModels / "cow.obj")}, sequence_options);
+      const SyntheticSequence sequence = FarCowOrbit(start_deg, tilt_deg);
       Tracker with(Database(), sequence.camera(), on);
       Tracker without(Database(), sequence.camera(), off);
       bool flipped = false;
@@ -570,15 +576,7 @@ TEST(Tracker, ReviseRunsTheMirrorTwinCheckSoASmoothedFrameKeepsTheTwinItCorrecte
   off.mirror_twin_check = false;
   int revised_frames = 0, wrong_without_check = 0;
   for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
-    SequenceOptions sequence_options;
-    sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
-    sequence_options.trajectory.kind = TrajectoryKind::kOrbit;
-    sequence_options.trajectory.num_frames = 40;
-    sequence_options.trajectory.orbit.step_deg = 3.0;
-    sequence_options.trajectory.orbit.start_deg = start_deg;
-    sequence_options.trajectory.orbit.tilt_deg = tilt_deg;
-    sequence_options.trajectory.orbit.distance_in_radii = 12.0;
-    const SyntheticSequence sequence({LoadMesh(kModels / "cow.obj")}, sequence_options);
+    const SyntheticSequence sequence = FarCowOrbit(start_deg, tilt_deg);
     Tracker with(Database(), sequence.camera(), on);
     Tracker without(Database(), sequence.camera(), off);
     for (int f = 0; f < sequence.num_frames(); ++f) {
