@@ -262,8 +262,8 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
         !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
       continue;
     }
-    ContourRefinementResult twin = RefinePoseToContour(model.mesh, camera_, Outline(*tracked),
-                                                       start, options_.refinement);
+    ContourRefinementResult twin =
+        RefinePoseToContour(model.mesh, camera_, Outline(*tracked), start, options_.refinement);
     if (twin.points_used < 6) continue;
     if (!Improves(twin)) twin.camera_from_object = start;
     const double rms = std::min(twin.final_rms_px, twin.initial_rms_px);
@@ -282,8 +282,8 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   const MirrorSymmetry& mirror = model.symmetry.mirrors[best_mirror];
   if (!((best->camera_from_object * centre).z() > 0.0)) return false;
   const Rigid3 back_start = MirrorTwinPose(best->camera_from_object, mirror, centre);
-  ContourRefinementResult back = RefinePoseToContour(model.mesh, camera_, Outline(*tracked),
-                                                     back_start, options_.refinement);
+  ContourRefinementResult back =
+      RefinePoseToContour(model.mesh, camera_, Outline(*tracked), back_start, options_.refinement);
   if (!Improves(back)) back.camera_from_object = back_start;
   const double back_rms = std::min(back.final_rms_px, back.initial_rms_px);
   if (back.points_used >= 6 && std::isfinite(back_rms) &&
@@ -595,18 +595,17 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
   }
   const FilterEstimate& estimate = *frame.estimate;
   const auto& directions = database_.sphere.directions;
-  if (state.object == estimate.object &&
-      equivalence_[static_cast<size_t>(state.object)].AngleDeg(
-          directions[static_cast<size_t>(state.view)],
-          directions[static_cast<size_t>(estimate.view)]) <= options_.filter.mode_radius_deg) {
-    return frame;
-  }
-  // Nor when it is the pose the frame reported (the mirror-twin check may have reported another
-  // view than the filter's estimate).
-  if (state.object == frame.result.object && frame.result.view_dir_in_object &&
-      equivalence_[static_cast<size_t>(state.object)].AngleDeg(
-          directions[static_cast<size_t>(state.view)], *frame.result.view_dir_in_object) <=
-          options_.filter.mode_radius_deg) {
+  // Whether the state is the hypothesis (object, view direction) within the filter's mode radius.
+  const auto is_state = [&](int object, const Eigen::Vector3d& view_dir) {
+    return state.object == object && equivalence_[static_cast<size_t>(state.object)].AngleDeg(
+                                         directions[static_cast<size_t>(state.view)], view_dir) <=
+                                         options_.filter.mode_radius_deg;
+  };
+  // The filter's estimate, or the pose the frame reported (the mirror-twin check may have
+  // reported another view than the estimate's): nothing to re-pose.
+  if (is_state(estimate.object, directions[static_cast<size_t>(estimate.view)]) ||
+      (frame.result.view_dir_in_object &&
+       is_state(frame.result.object, *frame.result.view_dir_in_object))) {
     return frame;
   }
   if (frame.segmentation.mask.empty())

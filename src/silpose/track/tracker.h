@@ -190,12 +190,11 @@ class Tracker {
   /// state's object, view, roll and score, and the object's probability in that frame; the 6-DOF
   /// pose, its refinement and the mirror-twin check (TrackerOptions::mirror_twin_check, which
   /// may report the twin instead, as in Process), the fit (iou) and the confidence are computed
-  /// again; the
-  /// state stays what it was, except that tracking and ambiguous are decided again by the
-  /// confidence threshold and the mirror-twin rule (track/confidence.h); and the runner-up becomes
-  /// the frame's former hypothesis (its mass NaN). The filter, the state rules' memory and the
-  /// stream position are not touched. Throws silpose::Error for a state outside the database, or a
-  /// frame without its mask.
+  /// again; the state stays what it was, except that tracking and ambiguous are decided again by
+  /// the confidence threshold and the mirror-twin rule (track/confidence.h); and the runner-up
+  /// becomes the frame's former hypothesis (its mass NaN). The filter, the state rules' memory and
+  /// the stream position are not touched. Throws silpose::Error for a state outside the database,
+  /// or a frame without its mask.
   TrackedFrame Revise(const TrackedFrame& frame, const PoseState& state);
 
  private:

@@ -3,13 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <numbers>
-#include <optional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
@@ -480,6 +482,11 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
 // across: far enough that a view and its mirror twin cast nearly the same outline, so that the
 // database's views often match the twin, and near enough that the refined twin poses fit the
 // outline differently.
+// Orbits (start, tilt, degrees) of FarCowOrbit on which the filter without the mirror-twin check
+// takes the wrong twin at times.
+constexpr std::array<std::pair<double, double>, 3> kFarCowOrbits = {
+    std::pair{60.0, 20.0}, std::pair{120.0, 20.0}, std::pair{120.0, 80.0}};
+
 SyntheticSequence FarCowOrbit(double start_deg, double tilt_deg) {
   SequenceOptions sequence_options;
   sequence_options.camera = PinholeCamera::Centered(640, 480, 1200.0);
@@ -501,8 +508,7 @@ TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
     TrackerOptions off = on;
     off.mirror_twin_check = false;
     int flips = 0, wrong_with = 0, wrong_without = 0;
-    // Orbits (start, tilt) on which the filter without the check takes the wrong twin at times.
-    for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
+    for (const auto& [start_deg, tilt_deg] : kFarCowOrbits) {
       const SyntheticSequence sequence = FarCowOrbit(start_deg, tilt_deg);
       Tracker with(Database(), sequence.camera(), on);
       Tracker without(Database(), sequence.camera(), off);
@@ -575,7 +581,7 @@ TEST(Tracker, ReviseRunsTheMirrorTwinCheckSoASmoothedFrameKeepsTheTwinItCorrecte
   TrackerOptions off = on;
   off.mirror_twin_check = false;
   int revised_frames = 0, wrong_without_check = 0;
-  for (const auto& [start_deg, tilt_deg] : {std::pair{60.0, 20.0}, {120.0, 20.0}, {120.0, 80.0}}) {
+  for (const auto& [start_deg, tilt_deg] : kFarCowOrbits) {
     const SyntheticSequence sequence = FarCowOrbit(start_deg, tilt_deg);
     Tracker with(Database(), sequence.camera(), on);
     Tracker without(Database(), sequence.camera(), off);
