@@ -361,12 +361,36 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
     return spectra_->Usable(object, v, shell) ? matcher_->Score(twin_query_, object, v, shell)
                                               : CorrelationPeak{-1.0f, 0.0f};
   };
-  // The best score near the reported pose: its view and the neighbours the grid may place better.
+  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
   const CorrelationPeak own = score(view);
+  const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
+  // Whether view v at its best roll is another pose: its rotation (not only its direction) is
+  // farther than the radius, modulo the object's symmetry. A solid with ten facets turned by half
+  // a facet and seen from above its equator moves the camera direction less than the turn.
+  const auto is_other = [&](int v, const CorrelationPeak& peak) {
+    return RotationErrorModuloSymmetryDeg(
+               CameraFromObjectRotation(directions[static_cast<size_t>(v)], peak.RollDeg(length)),
+               own_rotation, transforms) > radius_deg;
+  };
+  float alternative = -1.0f;
+  const auto consider = [&](int v, const CorrelationPeak& peak) {
+    if (peak.score > alternative) {
+      alternative = peak.score;
+      *other = {v, peak.RollDeg(length)};
+    }
+  };
+  // The best score near the reported pose: its view and the neighbours the grid may place better;
+  // a neighbour whose best roll makes another pose is one of the other poses.
   float near = own.score;
+  ring_.clear();
   for (const uint32_t n : database_.sphere.Neighbours(view)) {
-    if (same.AngleDeg(directions[n], centre) <= radius_deg)
-      near = std::max(near, score(static_cast<int>(n)).score);
+    ring_.push_back(static_cast<int>(n));
+    if (same.AngleDeg(directions[n], centre) > radius_deg) continue;
+    const CorrelationPeak peak = score(static_cast<int>(n));
+    if (is_other(static_cast<int>(n), peak))
+      consider(static_cast<int>(n), peak);
+    else
+      near = std::max(near, peak.score);
   }
   // The best far view: every view farther than the radius (modulo symmetry) ranked by the bound
   // over the first harmonics, the best ranked correlated exactly.
@@ -378,10 +402,21 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
     query[k] = weight * std::abs(twin_query_.coefficients[k]);
   }
   ranked_.clear();
+  // Views within the radius in direction but not beside the reported one: each is correlated
+  // and is another pose if its best roll makes it one (is_other). Only those near the view itself,
+  // not near its symmetric copies, which show the same outlines.
+  const double within_radius_cos = std::cos(radius_deg * std::numbers::pi / 180.0);
   for (int v = 0; v < database_.sphere.num_views(); ++v) {
-    if (!spectra_->Usable(object, v, shell) ||
-        same.AngleDeg(directions[static_cast<size_t>(v)], centre) <= radius_deg)
+    if (!spectra_->Usable(object, v, shell)) continue;
+    const Eigen::Vector3d& direction = directions[static_cast<size_t>(v)];
+    if (same.AngleDeg(direction, centre) <= radius_deg) {
+      if (v != view && direction.dot(centre) >= within_radius_cos &&
+          std::find(ring_.begin(), ring_.end(), v) == ring_.end()) {
+        const CorrelationPeak peak = score(v);
+        if (is_other(v, peak)) consider(v, peak);
+      }
       continue;
+    }
     const std::span<const float> magnitudes = spectra_->Magnitudes(object, v, shell);
     float bound = 0.0f;
     for (size_t k = 0; k < std::min(harmonics, magnitudes.size()); ++k)
@@ -391,18 +426,9 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   const size_t count = std::min(kFarCandidates, ranked_.size());
   std::partial_sort(ranked_.begin(), ranked_.begin() + static_cast<std::ptrdiff_t>(count),
                     ranked_.end(), std::greater<>());
-  float alternative = -1.0f;
-  for (size_t c = 0; c < count; ++c) {
-    const CorrelationPeak peak = score(ranked_[c].second);
-    if (peak.score > alternative) {
-      alternative = peak.score;
-      *other = {ranked_[c].second, peak.RollDeg(length)};
-    }
-  }
+  for (size_t c = 0; c < count; ++c) consider(ranked_[c].second, score(ranked_[c].second));
   // The reported view at other rolls: the local maxima of its correlation, best first, beyond the
   // radius of rotation modulo the object's symmetry.
-  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
-  const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
   correlation_.resize(static_cast<size_t>(length));
   matcher_->correlator().Correlate(twin_query_, spectra_->Get(object, view, shell), correlation_);
   maxima_.clear();

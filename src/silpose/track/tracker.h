@@ -247,9 +247,11 @@ class Tracker {
   bool ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin);
   /// ConfidenceFeatures::pose_score_gap of the reported database view `view` (shell `shell`) of
   /// `object`, from the frame's spectrum in twin_query_: the best score (any roll) of the view and
-  /// its neighbours within the filter's mode radius, minus the best of the other poses looked at:
-  /// the 8 views farther than that radius (modulo symmetry) ranked best by the low-harmonic bound,
-  /// and the local maxima of the view's own correlation over the roll whose rotation is farther.
+  /// its neighbours within the filter's mode radius, minus the best of the other poses looked at
+  /// (poses whose rotation is farther than that radius from the reported one, modulo symmetry):
+  /// the 8 views farther than the radius in direction (modulo symmetry) ranked best by the
+  /// low-harmonic bound; the views within the radius in direction whose best roll makes another
+  /// pose; and the local maxima of the view's own correlation over the roll that do.
   /// The best of those poses goes to `other` (view -1 when there is none).
   struct OtherPose {
     int view = -1;
@@ -271,6 +273,8 @@ class Tracker {
   std::vector<float> correlation_;
   std::vector<std::pair<float, int>> ranked_;
   std::vector<std::pair<float, int>> maxima_;
+  /// ScorePoseGap: the reported view's neighbours.
+  std::vector<int> ring_;
   int frame_ = 0;
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).
