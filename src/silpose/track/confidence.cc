@@ -137,7 +137,8 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   const bool ambiguous = out.competing_mode || out.twin_alike || out.pose_alike;
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
-  } else if (ambiguous && fit_known && mean_fit >= options_.unknown_fit_iou) {
+  } else if (ambiguous && ((fit_known && mean_fit >= options_.unknown_fit_iou) ||
+                           (!out.competing_mode && out.confidence >= options_.min_confidence))) {
     out.state = TrackState::kAmbiguous;
   } else if (recently_tracked) {
     out.state = TrackState::kBadSegmentation;
@@ -148,7 +149,11 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   } else {
     out.state = TrackState::kLost;
   }
-  Remember(out.state == TrackState::kTracking);
+  // A confident frame that is ambiguous only between poses of the object (not a competing mode,
+  // which may be another object) follows the object as well as a tracking one does.
+  Remember(out.state == TrackState::kTracking ||
+           (out.state == TrackState::kAmbiguous && !out.competing_mode &&
+            out.confidence >= options_.min_confidence));
   return out;
 }
 

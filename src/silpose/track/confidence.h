@@ -26,9 +26,12 @@
 //  - a competing mode, a mirror twin whose score is within twin_score_gap of the reported one
 //    (ConfidenceFeatures::twin_score_gap), or another pose scoring at least as well
 //    (ConfidenceFeatures::pose_score_gap, pose_score_gap), and the model fits (the mean IoU over
-//    the last fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou): kAmbiguous;
-//  - the object was tracked (kTracking) in at least 3 of the last fit_frames frames:
-//    kBadSegmentation (an occluder, a hand, a failed mask: the outline no longer fits);
+//    the last fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou) or, without a
+//    competing mode, the confidence is at least min_confidence (the frame would be kTracking
+//    but for the other pose: a degraded mask of an object known only up to a turn): kAmbiguous;
+//  - the object was followed in at least 3 of the last fit_frames frames (kTracking, or kAmbiguous
+//    without a competing mode and with confidence >= min_confidence): kBadSegmentation (an
+//    occluder, a hand, a failed mask: the outline no longer fits);
 //  - that mean IoU below unknown_fit_iou: kUnknownObject (no database object has fitted for a
 //    while; never before the first frame with a fit);
 //  - the area changed by more than abrupt_area_change (|ln| of the ratio) since the last frame

@@ -173,6 +173,45 @@ TEST(TrackStateEstimator, StatesFollowTheDocumentedRules) {
   EXPECT_NE(tracker.Measured(&clear, clear.score - 0.2).state, TrackState::kAmbiguous);
 }
 
+TEST(TrackStateEstimator, AConfidentFrameAmbiguousBetweenPosesIsFollowedEvenWithAPoorFit) {
+  // A degraded mask (the fit below the unknown-object IoU) of an object whose pose is known only
+  // up to another pose scoring as well: confident, so ambiguous, not an unknown object ...
+  TrackStateEstimator estimator;
+  ConfidenceFeatures ragged = GoodFit();
+  ragged.iou = 0.88;
+  ragged.outline_rms = 0.012;
+  ragged.pose_score_gap = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    ConfidenceFeatures f = ragged;
+    const TrackStateEstimator::Output out = estimator.Measured(&f, -1.0);
+    ASSERT_GE(out.confidence, estimator.options().min_confidence) << i;
+    ASSERT_LT(f.recent_iou, estimator.options().unknown_fit_iou) << i;
+    EXPECT_EQ(out.state, TrackState::kAmbiguous) << i;
+  }
+  // ... and the object counts as followed: a poor frame next is bad segmentation.
+  ConfidenceFeatures poor = PoorFit();
+  EXPECT_EQ(estimator.Measured(&poor, -1.0).state, TrackState::kBadSegmentation);
+  // Without the ambiguity the same frames are tracked, and the poor one after them the same.
+  TrackStateEstimator plain;
+  for (int i = 0; i < 4; ++i) {
+    ConfidenceFeatures f = ragged;
+    f.pose_score_gap = 0.05;
+    EXPECT_EQ(plain.Measured(&f, -1.0).state, TrackState::kTracking) << i;
+  }
+  poor = PoorFit();
+  EXPECT_EQ(plain.Measured(&poor, -1.0).state, TrackState::kBadSegmentation);
+  // A competing mode (perhaps another object) with a poor fit still is not followed: the fit
+  // rules decide.
+  TrackStateEstimator competing;
+  for (int i = 0; i < 4; ++i) {
+    ConfidenceFeatures f = ragged;
+    f.pose_score_gap = 0.05;
+    f.mode_mass = 0.45;
+    f.runner_up_mass = 0.44;
+    EXPECT_NE(competing.Measured(&f, f.score).state, TrackState::kAmbiguous) << i;
+  }
+}
+
 TEST(TrackStateOptions, InvalidValuesAreRefusedWithTheirName) {
   TrackStateOptions options;
   EXPECT_TRUE(options.Check());

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "silpose/geometry/view_frame.h"
+#include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -76,6 +77,80 @@ void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result) {
     result->view_dir_in_object = (s.rotation.transpose() * view_dir).normalized();
   }
   if (result->camera_from_object) result->camera_from_object = *result->camera_from_object * s;
+}
+
+std::optional<Rigid3> UnresolvedHalfTurn(const ViewDatabase& database, int object) {
+  const ModelViews& model = database.models.at(static_cast<size_t>(object));
+  const ObjectSymmetry& symmetry = model.symmetry;
+  if (!symmetry.continuous.empty() || symmetry.discrete.empty() || model.mesh.triangles.empty())
+    return std::nullopt;
+  // The smallest turn among the rotations: 360/n degrees about the n-fold axis; several axes
+  // with that turn (a box's three half turns) leave no axis to speak of.
+  const Rigid3* step = nullptr;
+  double step_angle = 0.0;
+  for (const Rigid3& s : symmetry.discrete) {
+    const double angle = Eigen::AngleAxisd(s.rotation).angle();
+    if (step == nullptr || angle < step_angle - 1e-6) {
+      step = &s;
+      step_angle = angle;
+    }
+  }
+  const Eigen::Vector3d axis = Eigen::AngleAxisd(step->rotation).axis();
+  for (const Rigid3& s : symmetry.discrete) {
+    const Eigen::AngleAxisd turn(s.rotation);
+    if (std::abs(turn.angle() - step_angle) <= 1e-6 && std::abs(turn.axis().dot(axis)) < 0.999)
+      return std::nullopt;
+  }
+  if (!(step_angle > 1e-3)) return std::nullopt;
+  // The half step about the same axis line: a point p on it solves (I - R) p = t.
+  const Eigen::Matrix3d rotation = step->rotation;
+  const Eigen::Vector3d point = (Eigen::Matrix3d::Identity() - rotation)
+                                    .completeOrthogonalDecomposition()
+                                    .solve(step->translation);
+  Rigid3 half;
+  half.rotation = Eigen::AngleAxisd(0.5 * step_angle, axis).toRotationMatrix();
+  half.translation = point - half.rotation * point;
+
+  const DatabaseParameters& parameters = database.parameters;
+  const ViewRenderOptions render = parameters.ShellRender(0);
+  const PinholeCamera camera = ViewCamera(render);
+  const double distance = parameters.distances_in_radii.front() * model.radius;
+  const Eigen::Vector3d centre(model.centre[0], model.centre[1], model.centre[2]);
+  const double spacing = database.sphere.typical_spacing_rad;
+  CircularCorrelator correlator(parameters.signature.length);
+  cv::Mat mask;
+  const auto describe = [&](const Rigid3& camera_from_object, SignatureSpectrum* spectrum) {
+    RenderSilhouette(model.mesh, camera, camera_from_object, &mask);
+    const SignatureResult result = ExtractSignature(mask, parameters.signature);
+    if (!result.ok()) return false;
+    correlator.Transform(result.signature.radii, spectrum);
+    return spectrum->has_variance;
+  };
+  constexpr int kSamples = 16;
+  const int num_views = database.sphere.num_views();
+  std::vector<double> turned_scores, step_scores;
+  SignatureSpectrum own, turned, stepped;
+  for (int v = 0; v < num_views && static_cast<int>(turned_scores.size()) < kSamples;
+       v += std::max(1, num_views / (2 * kSamples))) {
+    const Eigen::Vector3d& d = database.sphere.directions[static_cast<size_t>(v)];
+    if (std::abs(d.dot(axis)) > 0.9) continue;  // near the axis the turn is a roll
+    const Rigid3 pose = CameraFromObjectAtView(d, 0.0, distance, centre);
+    const Eigen::Vector3d across = d.cross(axis).normalized();
+    const Eigen::Vector3d d_step = Eigen::AngleAxisd(spacing, across) * d;
+    if (!describe(pose, &own) || !describe(pose * half, &turned) ||
+        !describe(CameraFromObjectAtView(d_step, 0.0, distance, centre), &stepped))
+      continue;
+    turned_scores.push_back(correlator.Peak(own, turned).score);
+    step_scores.push_back(correlator.Peak(own, stepped).score);
+  }
+  if (turned_scores.size() < kSamples / 2) return std::nullopt;
+  const auto median = [](std::vector<double> values) {
+    std::nth_element(values.begin(),
+                     values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+    return values[values.size() / 2];
+  };
+  if (median(turned_scores) < median(step_scores)) return std::nullopt;
+  return half;
 }
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
@@ -361,36 +436,12 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
     return spectra_->Usable(object, v, shell) ? matcher_->Score(twin_query_, object, v, shell)
                                               : CorrelationPeak{-1.0f, 0.0f};
   };
-  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
+  // The best score near the reported pose: its view and the neighbours the grid may place better.
   const CorrelationPeak own = score(view);
-  const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
-  // Whether view v at its best roll is another pose: its rotation (not only its direction) is
-  // farther than the radius, modulo the object's symmetry. A solid with ten facets turned by half
-  // a facet and seen from above its equator moves the camera direction less than the turn.
-  const auto is_other = [&](int v, const CorrelationPeak& peak) {
-    return RotationErrorModuloSymmetryDeg(
-               CameraFromObjectRotation(directions[static_cast<size_t>(v)], peak.RollDeg(length)),
-               own_rotation, transforms) > radius_deg;
-  };
-  float alternative = -1.0f;
-  const auto consider = [&](int v, const CorrelationPeak& peak) {
-    if (peak.score > alternative) {
-      alternative = peak.score;
-      *other = {v, peak.RollDeg(length)};
-    }
-  };
-  // The best score near the reported pose: its view and the neighbours the grid may place better;
-  // a neighbour whose best roll makes another pose is one of the other poses.
   float near = own.score;
-  ring_.clear();
   for (const uint32_t n : database_.sphere.Neighbours(view)) {
-    ring_.push_back(static_cast<int>(n));
-    if (same.AngleDeg(directions[n], centre) > radius_deg) continue;
-    const CorrelationPeak peak = score(static_cast<int>(n));
-    if (is_other(static_cast<int>(n), peak))
-      consider(static_cast<int>(n), peak);
-    else
-      near = std::max(near, peak.score);
+    if (same.AngleDeg(directions[n], centre) <= radius_deg)
+      near = std::max(near, score(static_cast<int>(n)).score);
   }
   // The best far view: every view farther than the radius (modulo symmetry) ranked by the bound
   // over the first harmonics, the best ranked correlated exactly.
@@ -402,21 +453,10 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
     query[k] = weight * std::abs(twin_query_.coefficients[k]);
   }
   ranked_.clear();
-  // Views within the radius in direction but not beside the reported one: each is correlated
-  // and is another pose if its best roll makes it one (is_other). Only those near the view itself,
-  // not near its symmetric copies, which show the same outlines.
-  const double within_radius_cos = std::cos(radius_deg * std::numbers::pi / 180.0);
   for (int v = 0; v < database_.sphere.num_views(); ++v) {
-    if (!spectra_->Usable(object, v, shell)) continue;
-    const Eigen::Vector3d& direction = directions[static_cast<size_t>(v)];
-    if (same.AngleDeg(direction, centre) <= radius_deg) {
-      if (v != view && direction.dot(centre) >= within_radius_cos &&
-          std::find(ring_.begin(), ring_.end(), v) == ring_.end()) {
-        const CorrelationPeak peak = score(v);
-        if (is_other(v, peak)) consider(v, peak);
-      }
+    if (!spectra_->Usable(object, v, shell) ||
+        same.AngleDeg(directions[static_cast<size_t>(v)], centre) <= radius_deg)
       continue;
-    }
     const std::span<const float> magnitudes = spectra_->Magnitudes(object, v, shell);
     float bound = 0.0f;
     for (size_t k = 0; k < std::min(harmonics, magnitudes.size()); ++k)
@@ -426,9 +466,18 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   const size_t count = std::min(kFarCandidates, ranked_.size());
   std::partial_sort(ranked_.begin(), ranked_.begin() + static_cast<std::ptrdiff_t>(count),
                     ranked_.end(), std::greater<>());
-  for (size_t c = 0; c < count; ++c) consider(ranked_[c].second, score(ranked_[c].second));
+  float alternative = -1.0f;
+  for (size_t c = 0; c < count; ++c) {
+    const CorrelationPeak peak = score(ranked_[c].second);
+    if (peak.score > alternative) {
+      alternative = peak.score;
+      *other = {ranked_[c].second, peak.RollDeg(length)};
+    }
+  }
   // The reported view at other rolls: the local maxima of its correlation, best first, beyond the
   // radius of rotation modulo the object's symmetry.
+  const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
+  const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
   correlation_.resize(static_cast<size_t>(length));
   matcher_->correlator().Correlate(twin_query_, spectra_->Get(object, view, shell), correlation_);
   maxima_.clear();
@@ -451,7 +500,32 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
       break;
     }
   }
+  // A turn the outline does not resolve (UnresolvedHalfTurn): the pose turned by half a step of
+  // the object's rotation explains the outline as well as the reported one, by the measurement
+  // that found it so; its nearest view and roll are the other pose.
+  if (const std::optional<Rigid3>& half_turn = UnresolvedHalfTurnOf(object);
+      half_turn.has_value() && near >= alternative) {
+    Eigen::Vector3d turned_direction;
+    double turned_roll_deg = 0.0;
+    ViewAndRollFromRotation(own_rotation * half_turn->rotation, &turned_direction,
+                            &turned_roll_deg);
+    alternative = near;
+    *other = {database_.sphere.NearestView(turned_direction), turned_roll_deg};
+  }
   return static_cast<double>(near) - static_cast<double>(alternative);
+}
+
+const std::optional<Rigid3>& Tracker::UnresolvedHalfTurnOf(int object) {
+  half_turns_.resize(database_.models.size());
+  std::optional<std::optional<Rigid3>>& half = half_turns_[static_cast<size_t>(object)];
+  if (!half.has_value()) {
+    try {
+      half = UnresolvedHalfTurn(database_, object);
+    } catch (const Error&) {
+      half = std::optional<Rigid3>();  // not measurable (the stored mesh cannot be rendered)
+    }
+  }
+  return *half;
 }
 
 void Tracker::MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px) {
