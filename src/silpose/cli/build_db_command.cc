@@ -4,13 +4,10 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
-#include <numbers>
-#include <optional>
 
 #include "silpose/cli/commands.h"
 #include "silpose/database/database_builder.h"
 #include "silpose/match/view_matcher.h"
-#include "silpose/track/tracker.h"
 #include "silpose/util/error.h"
 #include "silpose/util/output_file.h"
 #include "silpose/util/progress.h"
@@ -106,17 +103,8 @@ void PrintDatabaseSummary(const ViewDatabase& database) {
   }
   // Symmetries (docs/symmetry.md): poses of a model with rotations are reported in canonical form.
   std::printf("symmetries (model frame):\n");
-  for (size_t m = 0; m < database.models.size(); ++m) {
-    const ModelViews& model = database.models[m];
+  for (const ModelViews& model : database.models)
     std::printf("  %-22s %s\n", model.name.c_str(), model.symmetry.Describe().c_str());
-    // A turn its outline does not resolve: track reports its frames as ambiguous.
-    if (const std::optional<Rigid3> half = UnresolvedHalfTurn(database, static_cast<int>(m))) {
-      std::printf(
-          "  %-22s its outline does not resolve a turn by %.3g deg (half a step) about "
-          "that axis: poses known up to it (docs/symmetry.md)\n",
-          "", Eigen::AngleAxisd(half->rotation).angle() * 180.0 / std::numbers::pi);
-    }
-  }
 }
 
 void RunBuildDb(const BuildDbArguments& arguments) {

@@ -177,10 +177,20 @@ ObjectSymmetry DetectSymmetry(const TriangleMesh& mesh, const SymmetryDetectionO
     }
     int order = 1;
     // The largest n whose turn passes while half of it fails: turns too small to move the
-    // surface beyond the tolerance pass for every axis, and are not symmetries.
+    // surface beyond the tolerance pass for every axis, and are not symmetries. Every multiple of
+    // the turn must pass too (the turns of a symmetry form a group): a turn close to a true
+    // symmetry can pass on its own (an eight-sided solid turned by 36 degrees lies within the
+    // tolerance of its 45-degree turn when its flat faces carry most of the surface), but its
+    // multiples drift away from the true ones (72 degrees is 18 from 90).
+    const auto all_multiples_pass = [&](int n) {
+      for (int k = 2; k < n; ++k) {
+        if (!tester.RotationPasses(axis, centre, 2.0 * kPi * k / n)) return false;
+      }
+      return true;
+    };
     for (int n = options.max_order; n >= 2; --n) {
       if (tester.RotationPasses(axis, centre, 2.0 * kPi / n) &&
-          !tester.RotationPasses(axis, centre, kPi / n)) {
+          !tester.RotationPasses(axis, centre, kPi / n) && all_multiples_pass(n)) {
         order = n;
         break;
       }

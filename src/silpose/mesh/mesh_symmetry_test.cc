@@ -113,6 +113,30 @@ TEST(MeshSymmetry, HexagonalBoltHasSixTurnsAndNoFlip) {
   EXPECT_EQ(s.mirrors.size(), 6u) << s.Describe();
 }
 
+TEST(MeshSymmetry, PrismsWhoseFlatEndsCarryMostOfTheSurfaceGetTheirOwnOrder) {
+  // On a short prism most surface samples lie on the two end faces, which any turn about the
+  // axis keeps on the surface; a turn near a true symmetry then passes too (a ten-sided prism
+  // turned by 30 degrees lies within the tolerance of its 36-degree turn), and only its
+  // multiples (90 degrees is 18 from 72 and 108) tell the true order.
+  for (const auto& [sides, half_height] :
+       std::vector<std::pair<int, double>>{{8, 1.0}, {10, 1.0}, {12, 1.0}, {8, 3.0}}) {
+    TriangleMesh mesh;
+    AddPrism(&mesh, sides, 1.0, -half_height, half_height);
+    const ObjectSymmetry s = DetectSymmetry(mesh);
+    EXPECT_TRUE(s.continuous.empty()) << sides << " sides: " << s.Describe();
+    int turns = 0;
+    double smallest = 2.0 * kPi;
+    for (const Rigid3& r : s.discrete) {
+      const Eigen::AngleAxisd turn(r.rotation);
+      if (std::abs(std::abs(turn.axis().z()) - 1.0) > 1e-6) continue;  // a flip
+      ++turns;
+      smallest = std::min(smallest, turn.angle());
+    }
+    EXPECT_EQ(turns, sides - 1) << sides << " sides: " << s.Describe();
+    EXPECT_NEAR(smallest, 2.0 * kPi / sides, 1e-6) << sides << " sides: " << s.Describe();
+  }
+}
+
 TEST(MeshSymmetry, BoxWithUnequalSidesHasThreeHalfTurns) {
   TriangleMesh box;
   AddBox(&box, 3.0, 2.0, 1.0);

@@ -109,9 +109,8 @@ struct FrameResult {
   double iou = std::numeric_limits<double>::quiet_NaN();
   /// The strongest other hypothesis: the particle filter's (FilterEstimate::runner_up), or
   /// another pose of the object that explains the outline as well (mass NaN: a mirror twin of the
-  /// reported view, a pose farther than 15 degrees, or the pose turned by a half step its outline
-  /// does not resolve; docs/confidence.md): object (-1 = none) and name, its share of the
-  /// posterior weight, view direction and roll.
+  /// reported view or a pose farther than 15 degrees; docs/confidence.md): object (-1 = none) and
+  /// name, its share of the posterior weight, view direction and roll.
   int runner_up_object = -1;
   std::string runner_up_name;
   double runner_up_mass = std::numeric_limits<double>::quiet_NaN();

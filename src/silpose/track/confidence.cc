@@ -121,7 +121,8 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   features->recent_outline_rms = mean_rms;
   out.confidence = options_.model.Evaluate(*features);
 
-  // Tracked recently: at least kEstablished of the last fit_frames frames were kTracking.
+  // Followed recently: at least kEstablished of the last fit_frames frames were kTracking, or
+  // confidently kAmbiguous between poses of the object (Remember below).
   constexpr int kEstablished = 3;
   int tracked_frames = 0;
   for (bool t : recent_tracking_) tracked_frames += t;

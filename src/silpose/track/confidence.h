@@ -28,7 +28,7 @@
 //    (ConfidenceFeatures::pose_score_gap, pose_score_gap), and the model fits (the mean IoU over
 //    the last fit_frames frames with a fit, i.e. a pose, at least unknown_fit_iou) or, without a
 //    competing mode, the confidence is at least min_confidence (the frame would be kTracking
-//    but for the other pose: a degraded mask of an object known only up to a turn): kAmbiguous;
+//    but for the mirror twin or other pose, e.g. with a degraded mask): kAmbiguous;
 //  - the object was followed in at least 3 of the last fit_frames frames (kTracking, or kAmbiguous
 //    without a competing mode and with confidence >= min_confidence): kBadSegmentation (an
 //    occluder, a hand, a failed mask: the outline no longer fits);
@@ -166,7 +166,8 @@ class TrackStateEstimator {
   TrackStateOptions options_;
   std::deque<double> recent_fit_;
   std::deque<double> recent_rms_;
-  /// Whether each of the last fit_frames frames was kTracking.
+  /// Whether the object was followed in each of the last fit_frames frames (kTracking, or
+  /// kAmbiguous without a competing mode and with confidence >= min_confidence).
   std::deque<bool> recent_tracking_;
   void Remember(bool tracking);
 };

@@ -9,7 +9,6 @@
 #include <numbers>
 
 #include "silpose/geometry/view_frame.h"
-#include "silpose/render/silhouette_renderer.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -77,80 +76,6 @@ void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result) {
     result->view_dir_in_object = (s.rotation.transpose() * view_dir).normalized();
   }
   if (result->camera_from_object) result->camera_from_object = *result->camera_from_object * s;
-}
-
-std::optional<Rigid3> UnresolvedHalfTurn(const ViewDatabase& database, int object) {
-  const ModelViews& model = database.models.at(static_cast<size_t>(object));
-  const ObjectSymmetry& symmetry = model.symmetry;
-  if (!symmetry.continuous.empty() || symmetry.discrete.empty() || model.mesh.triangles.empty())
-    return std::nullopt;
-  // The smallest turn among the rotations: 360/n degrees about the n-fold axis; several axes
-  // with that turn (a box's three half turns) leave no axis to speak of.
-  const Rigid3* step = nullptr;
-  double step_angle = 0.0;
-  for (const Rigid3& s : symmetry.discrete) {
-    const double angle = Eigen::AngleAxisd(s.rotation).angle();
-    if (step == nullptr || angle < step_angle - 1e-6) {
-      step = &s;
-      step_angle = angle;
-    }
-  }
-  const Eigen::Vector3d axis = Eigen::AngleAxisd(step->rotation).axis();
-  for (const Rigid3& s : symmetry.discrete) {
-    const Eigen::AngleAxisd turn(s.rotation);
-    if (std::abs(turn.angle() - step_angle) <= 1e-6 && std::abs(turn.axis().dot(axis)) < 0.999)
-      return std::nullopt;
-  }
-  if (!(step_angle > 1e-3)) return std::nullopt;
-  // The half step about the same axis line: a point p on it solves (I - R) p = t.
-  const Eigen::Matrix3d rotation = step->rotation;
-  const Eigen::Vector3d point = (Eigen::Matrix3d::Identity() - rotation)
-                                    .completeOrthogonalDecomposition()
-                                    .solve(step->translation);
-  Rigid3 half;
-  half.rotation = Eigen::AngleAxisd(0.5 * step_angle, axis).toRotationMatrix();
-  half.translation = point - half.rotation * point;
-
-  const DatabaseParameters& parameters = database.parameters;
-  const ViewRenderOptions render = parameters.ShellRender(0);
-  const PinholeCamera camera = ViewCamera(render);
-  const double distance = parameters.distances_in_radii.front() * model.radius;
-  const Eigen::Vector3d centre(model.centre[0], model.centre[1], model.centre[2]);
-  const double spacing = database.sphere.typical_spacing_rad;
-  CircularCorrelator correlator(parameters.signature.length);
-  cv::Mat mask;
-  const auto describe = [&](const Rigid3& camera_from_object, SignatureSpectrum* spectrum) {
-    RenderSilhouette(model.mesh, camera, camera_from_object, &mask);
-    const SignatureResult result = ExtractSignature(mask, parameters.signature);
-    if (!result.ok()) return false;
-    correlator.Transform(result.signature.radii, spectrum);
-    return spectrum->has_variance;
-  };
-  constexpr int kSamples = 16;
-  const int num_views = database.sphere.num_views();
-  std::vector<double> turned_scores, step_scores;
-  SignatureSpectrum own, turned, stepped;
-  for (int v = 0; v < num_views && static_cast<int>(turned_scores.size()) < kSamples;
-       v += std::max(1, num_views / (2 * kSamples))) {
-    const Eigen::Vector3d& d = database.sphere.directions[static_cast<size_t>(v)];
-    if (std::abs(d.dot(axis)) > 0.9) continue;  // near the axis the turn is a roll
-    const Rigid3 pose = CameraFromObjectAtView(d, 0.0, distance, centre);
-    const Eigen::Vector3d across = d.cross(axis).normalized();
-    const Eigen::Vector3d d_step = Eigen::AngleAxisd(spacing, across) * d;
-    if (!describe(pose, &own) || !describe(pose * half, &turned) ||
-        !describe(CameraFromObjectAtView(d_step, 0.0, distance, centre), &stepped))
-      continue;
-    turned_scores.push_back(correlator.Peak(own, turned).score);
-    step_scores.push_back(correlator.Peak(own, stepped).score);
-  }
-  if (turned_scores.size() < kSamples / 2) return std::nullopt;
-  const auto median = [](std::vector<double> values) {
-    std::nth_element(values.begin(),
-                     values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
-    return values[values.size() / 2];
-  };
-  if (median(turned_scores) < median(step_scores)) return std::nullopt;
-  return half;
 }
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera,
@@ -500,32 +425,7 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
       break;
     }
   }
-  // A turn the outline does not resolve (UnresolvedHalfTurn): the pose turned by half a step of
-  // the object's rotation explains the outline as well as the reported one, by the measurement
-  // that found it so; its nearest view and roll are the other pose.
-  if (const std::optional<Rigid3>& half_turn = UnresolvedHalfTurnOf(object);
-      half_turn.has_value() && near >= alternative) {
-    Eigen::Vector3d turned_direction;
-    double turned_roll_deg = 0.0;
-    ViewAndRollFromRotation(own_rotation * half_turn->rotation, &turned_direction,
-                            &turned_roll_deg);
-    alternative = near;
-    *other = {database_.sphere.NearestView(turned_direction), turned_roll_deg};
-  }
   return static_cast<double>(near) - static_cast<double>(alternative);
-}
-
-const std::optional<Rigid3>& Tracker::UnresolvedHalfTurnOf(int object) {
-  half_turns_.resize(database_.models.size());
-  std::optional<std::optional<Rigid3>>& half = half_turns_[static_cast<size_t>(object)];
-  if (!half.has_value()) {
-    try {
-      half = UnresolvedHalfTurn(database_, object);
-    } catch (const Error&) {
-      half = std::optional<Rigid3>();  // not measurable (the stored mesh cannot be rendered)
-    }
-  }
-  return *half;
 }
 
 void Tracker::MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px) {

@@ -39,17 +39,6 @@
 
 namespace silpose {
 
-/// For a model whose rotational symmetry is an n-fold turn about one axis (n >= 2; no continuous
-/// axis): the turn by half a step about that axis (model_from_model, 180/n degrees) when it
-/// changes the outline less than moving the camera by one step of the database's view grid does,
-/// so that matching outlines cannot tell the two poses apart (docs/symmetry.md, "Turns the
-/// outline does not resolve"); nullopt otherwise, for other models and for models without a
-/// stored mesh. Measured on renderings of the stored mesh as the database renders its views (the
-/// first distance shell): over up to 16 views away from the axis, the median correlation score
-/// between the view's outline and the turned object's outline, against the median score between
-/// the view's outline and the one a grid step nearer to or farther from the axis.
-std::optional<Rigid3> UnresolvedHalfTurn(const ViewDatabase& database, int object);
-
 /// The camera assumed when the user gives none (`silpose track` warns): principal point at the
 /// image centre ((w - 1) / 2, (h - 1) / 2), square pixels, focal length 0.8203 * width (525 px at
 /// 640 pixels: the VGA camera of the usual RGB-D datasets and of `silpose synth`; horizontal field
@@ -225,8 +214,6 @@ class Tracker {
   bool FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view);
   /// The object's symmetry transforms, coarsely sampled (made when first needed).
   const std::vector<Rigid3>& SymmetryTransformsOf(int object);
-  /// UnresolvedHalfTurn, made when first needed.
-  const std::optional<Rigid3>& UnresolvedHalfTurnOf(int object);
   Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra,
           const PinholeCamera& camera, const TrackerOptions& options);
   /// The pose (and refinement) of tracked->result's object as database view `view` in distance
@@ -262,10 +249,8 @@ class Tracker {
   /// `object`, from the frame's spectrum in twin_query_: the best score (any roll) of the view and
   /// its neighbours within the filter's mode radius, minus the best of the other poses looked at:
   /// the 8 views farther than that radius (modulo symmetry) ranked best by the low-harmonic bound,
-  /// the local maxima of the view's own correlation over the roll whose rotation is farther, and
-  /// for an object with an UnresolvedHalfTurn the reported pose turned by it, which counts as
-  /// scoring as well as the best near the reported pose. The best of those poses goes to `other`
-  /// (view -1 when there is none).
+  /// and the local maxima of the view's own correlation over the roll whose rotation is farther.
+  /// The best of those poses goes to `other` (view -1 when there is none).
   struct OtherPose {
     int view = -1;
     double roll_deg = 0.0;
@@ -286,8 +271,6 @@ class Tracker {
   std::vector<float> correlation_;
   std::vector<std::pair<float, int>> ranked_;
   std::vector<std::pair<float, int>> maxima_;
-  /// Per model: UnresolvedHalfTurn, once measured.
-  std::vector<std::optional<std::optional<Rigid3>>> half_turns_;
   int frame_ = 0;
   int measured_frames_ = 0;
   /// Area of the last usable silhouette, pixels (0 before the first).

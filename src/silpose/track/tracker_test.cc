@@ -6,7 +6,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
@@ -15,7 +14,6 @@
 #include <utility>
 
 #include "silpose/database/database_builder.h"
-#include "silpose/geometry/symmetry.h"
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/pose/pose_error.h"
@@ -312,99 +310,6 @@ TEST(Tracker, PoseGapIsSmallWhereAnotherPoseCastsTheSameOutline) {
   EXPECT_FALSE(std::isfinite(hand.confidence_features->twin_score_gap));
   EXPECT_GT(hand.confidence_features->pose_score_gap, 2.0 * pose_gap);
   EXPECT_GT(hand.confidence_features->pose_score_gap, 0.03);
-}
-
-// A closed prism over a regular `sides`-gon of circumradius 1 about the z axis, z in [-h, h],
-// written as an OBJ file in the test's temporary folder.
-std::filesystem::path WritePrism(int sides, double h, const std::string& name) {
-  const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / (name + ".obj");
-  FILE* file = std::fopen(path.c_str(), "w");
-  if (file == nullptr) return path;
-  for (int k = 0; k < sides; ++k) {
-    const double a = 2.0 * std::numbers::pi * k / sides;
-    std::fprintf(file, "v %.9f %.9f %.9f\nv %.9f %.9f %.9f\n", std::cos(a), std::sin(a), -h,
-                 std::cos(a), std::sin(a), h);
-  }
-  std::fprintf(file, "v 0 0 %.9f\nv 0 0 %.9f\n", -h, h);
-  const int bottom = 2 * sides + 1, top = bottom + 1;  // OBJ indices start at 1
-  for (int k = 0; k < sides; ++k) {
-    const int a0 = 2 * k + 1, a1 = a0 + 1, b0 = 2 * ((k + 1) % sides) + 1, b1 = b0 + 1;
-    std::fprintf(file, "f %d %d %d\nf %d %d %d\nf %d %d %d\nf %d %d %d\n", a0, b0, b1, a0, b1, a1,
-                 bottom, b0, a0, top, a1, b1);
-  }
-  std::fclose(file);
-  return path;
-}
-
-// The turns by 360 k / n degrees about the z axis, k = 1 .. n - 1: the exact symmetry of the
-// prisms above (set by hand: the tests are about what the tracker does with a symmetry).
-ObjectSymmetry TurnsAboutZ(int n) {
-  ObjectSymmetry symmetry;
-  for (int k = 1; k < n; ++k) {
-    Rigid3 turn;
-    turn.rotation = Eigen::AngleAxisd(2.0 * std::numbers::pi * k / n, Eigen::Vector3d::UnitZ())
-                        .toRotationMatrix();
-    symmetry.discrete.push_back(turn);
-  }
-  return symmetry;
-}
-
-// A database of one prism with its exact n-fold symmetry.
-ViewDatabase PrismDatabase(int sides, double h, const std::string& name, int resolution_px = 192) {
-  DatabaseBuildOptions build;
-  build.parameters.view_sphere.num_views = 1000;
-  build.parameters.render.resolution_px = resolution_px;
-  ViewDatabase database = BuildViewDatabase({WritePrism(sides, h, name)}, build);
-  database.models[0].symmetry = TurnsAboutZ(sides);
-  return database;
-}
-
-// The prism seen from `elevation_deg` above its equator at `azimuth_deg`, 3 radii away.
-cv::Mat PrismFrame(const ViewDatabase& database, const PinholeCamera& camera, double elevation_deg,
-                   double azimuth_deg) {
-  const double e = elevation_deg * std::numbers::pi / 180.0;
-  const double a = azimuth_deg * std::numbers::pi / 180.0;
-  const Eigen::Vector3d dir(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
-  const TriangleMesh& mesh = database.models[0].mesh;
-  cv::Mat mask;
-  RenderSilhouette(mesh, camera,
-                   CameraFromObjectAtView(dir, 10.0, 3.0 * mesh.Radius(), mesh.Centre()), &mask);
-  return mask;
-}
-
-TEST(Tracker, AHalfTurnTheOutlineDoesNotResolveMakesTheFrameAmbiguous) {
-  // A sixteen-sided prism is nearly round: turned by half a step (11.25 degrees about z) its
-  // outline changes less than a step of the view grid changes it, so the outline cannot tell the
-  // two poses apart. A square box's half step (45 degrees) shows.
-  const ViewDatabase box = PrismDatabase(4, 1.0, "square_prism");
-  EXPECT_FALSE(UnresolvedHalfTurn(box, 0).has_value());
-  const ViewDatabase database = PrismDatabase(16, 1.0, "sixteen_sided_prism");
-  const std::optional<Rigid3> half = UnresolvedHalfTurn(database, 0);
-  ASSERT_TRUE(half.has_value());
-  const Eigen::AngleAxisd turn(half->rotation);
-  EXPECT_NEAR(turn.angle() * 180.0 / std::numbers::pi, 11.25, 1e-6);
-  EXPECT_NEAR(std::abs(turn.axis().z()), 1.0, 1e-9);
-  EXPECT_LT(half->translation.norm(), 1e-9);  // about the axis through the origin
-  // A frame of it: the state says the pose is one of two, and the runner-up is the turned pose.
-  const PinholeCamera camera = PinholeCamera::Centered(640, 480, 300.0);
-  TrackerOptions options;
-  options.brute_force = true;
-  Tracker tracker(database, camera, options);
-  const FrameResult r = tracker.Process(PrismFrame(database, camera, 20.0, 7.0)).result;
-  ASSERT_EQ(r.object, 0);
-  ASSERT_TRUE(r.view_dir_in_object.has_value());
-  EXPECT_EQ(r.state, TrackState::kAmbiguous);
-  EXPECT_EQ(r.runner_up_object, 0);
-  ASSERT_TRUE(r.runner_up_view_dir.has_value());
-  const Eigen::Matrix3d reported = CameraFromObjectRotation(*r.view_dir_in_object, r.roll_deg);
-  const Eigen::Matrix3d runner_up =
-      CameraFromObjectRotation(*r.runner_up_view_dir, r.runner_up_roll_deg);
-  // The runner-up is the turned pose, on the view grid (modulo the symmetry: the reported pose
-  // is in canonical form): within a grid spacing of it, and as far from the reported pose as a
-  // half step.
-  const std::vector<Rigid3> symmetries = SymmetryTransforms(database.models[0].symmetry, 0.05);
-  EXPECT_LT(RotationErrorModuloSymmetryDeg(runner_up, reported * half->rotation, symmetries), 6.0);
-  EXPECT_GT(RotationErrorModuloSymmetryDeg(runner_up, reported, symmetries), 8.0);
 }
 
 // The cow's silhouette shrunk by `scale` and centred at `centre` in an empty frame.
