@@ -136,10 +136,13 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   out.pose_alike = std::isfinite(features->pose_score_gap) &&
                    features->pose_score_gap <= options_.pose_score_gap;
   const bool ambiguous = out.competing_mode || out.twin_alike || out.pose_alike;
+  // Confident, and ambiguous only between poses of the object (not a competing mode, which may be
+  // another object): the object is followed as well as in a tracking frame.
+  const bool followed_alike =
+      ambiguous && !out.competing_mode && out.confidence >= options_.min_confidence;
   if (!ambiguous && out.confidence >= options_.min_confidence) {
     out.state = TrackState::kTracking;
-  } else if (ambiguous && ((fit_known && mean_fit >= options_.unknown_fit_iou) ||
-                           (!out.competing_mode && out.confidence >= options_.min_confidence))) {
+  } else if (followed_alike || (ambiguous && fit_known && mean_fit >= options_.unknown_fit_iou)) {
     out.state = TrackState::kAmbiguous;
   } else if (recently_tracked) {
     out.state = TrackState::kBadSegmentation;
@@ -150,11 +153,7 @@ TrackStateEstimator::Output TrackStateEstimator::Measured(ConfidenceFeatures* fe
   } else {
     out.state = TrackState::kLost;
   }
-  // A confident frame that is ambiguous only between poses of the object (not a competing mode,
-  // which may be another object) follows the object as well as a tracking one does.
-  Remember(out.state == TrackState::kTracking ||
-           (out.state == TrackState::kAmbiguous && !out.competing_mode &&
-            out.confidence >= options_.min_confidence));
+  Remember(out.state == TrackState::kTracking || followed_alike);
   return out;
 }
 
