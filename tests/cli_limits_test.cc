@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -273,6 +274,19 @@ TEST_F(CliLimitsTest, DegenerateMeshesAreRefusedByBuildDb) {
   EXPECT_FALSE(std::filesystem::exists(Path("needle.db")));
 }
 
+// The file size in "a file of about 612.2 kB" (or MB, GB) of build-db's estimate, in MB.
+double EstimatedMegabytes(const std::string& out) {
+  const auto at = out.find("a file of about ");
+  if (at == std::string::npos) return -1.0;
+  char* end = nullptr;
+  const double value = std::strtod(out.c_str() + at + 16, &end);
+  const std::string unit(end, std::min<size_t>(3, std::strlen(end)));
+  if (unit == " kB") return value / 1e3;
+  if (unit == " GB") return value * 1e3;
+  if (unit == " MB") return value;
+  return -1.0;
+}
+
 TEST_F(CliLimitsTest, BuildDbEstimatesTheSizeAndRefusesHugeDatabasesUpFront) {
   const std::string models(SILPOSE_SAMPLE_MODELS_DIR);
   CommandResult run =
@@ -294,10 +308,17 @@ TEST_F(CliLimitsTest, BuildDbEstimatesTheSizeAndRefusesHugeDatabasesUpFront) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto at = run.out.find("a file of about ");
   ASSERT_NE(at, std::string::npos) << run.out;
-  const double estimated_mb = std::atof(run.out.c_str() + at + 16);
   const double written_mb =
       static_cast<double>(std::filesystem::file_size(Path("estimated.db"))) / 1e6;
-  EXPECT_NEAR(estimated_mb, written_mb, 0.1 * written_mb) << run.out;
+  EXPECT_NEAR(EstimatedMegabytes(run.out), written_mb, 0.1 * written_mb) << run.out;
+  // With every view's signature kept, the file is larger by 4 kB a view and shell (M = 1000), and
+  // so is the estimate.
+  run = Silpose("build-db " + models + "/bunny.obj -o " + Path("full.db") +
+                " --views 100 --threads 2 --full-signatures");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const double full_mb = static_cast<double>(std::filesystem::file_size(Path("full.db"))) / 1e6;
+  EXPECT_NEAR(full_mb - written_mb, 100 * 4 * 4000 / 1e6, 0.05 * full_mb);
+  EXPECT_NEAR(EstimatedMegabytes(run.out), full_mb, 0.1 * full_mb) << run.out;
 }
 
 TEST_F(CliLimitsTest, BuildDbNeverReplacesDevicesFifosOrSymlinksAndIgnoresStaleTemporaries) {

@@ -20,6 +20,7 @@ class DatabaseOptions:
     bins: int
     neighbour_radius: float
     threads: int
+    full_signatures: bool
     def __init__(self, **kwargs: object) -> None: ...
     def check(self) -> None: ...
 

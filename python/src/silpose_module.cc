@@ -406,6 +406,9 @@ void BindDatabase(py::module_& m) {
           "Views closer than this many typical spacings are neighbours.")
       .def_readwrite("threads", &DatabaseBuildOptions::num_threads,
                      "Worker threads (0 = all cores); the database does not depend on it.")
+      .def_readwrite("full_signatures", &DatabaseBuildOptions::keep_signatures,
+                     "Also keep every view's raw signature (build-db --full-signatures); by "
+                     "default the database keeps only the spectra and derives the signatures.")
       .def(
           "check",
           [](const DatabaseBuildOptions& o) {
@@ -482,16 +485,34 @@ void BindDatabase(py::module_& m) {
                          " models)");
             }
             const ModelViews& views = database.models[static_cast<size_t>(model)];
+            const auto shape = std::vector<py::ssize_t>{
+                static_cast<py::ssize_t>(database.num_shells()),
+                static_cast<py::ssize_t>(database.num_views()),
+                static_cast<py::ssize_t>(database.signature_length())};
+            if (!views.signatures_stored()) {
+              // A compact database: each signature derived from its stored spectrum, copied.
+              py::array_t<float> derived(shape);
+              float* out = derived.mutable_data();
+              const auto length = static_cast<size_t>(database.signature_length());
+              for (int s = 0; s < database.num_shells(); ++s) {
+                for (int v = 0; v < database.num_views(); ++v) {
+                  const std::span<const float> radii = views.Signature(v, s);
+                  std::copy(radii.begin(), radii.end(), out);
+                  out += length;
+                }
+              }
+              return py::array(derived);
+            }
             py::array flat = ReadOnlyView<float>(views.signatures.data(),
                                                  static_cast<py::ssize_t>(views.views.size()),
                                                  database.signature_length(), self);
-            return flat.reshape({static_cast<py::ssize_t>(database.num_shells()),
-                                 static_cast<py::ssize_t>(database.num_views()),
-                                 static_cast<py::ssize_t>(database.signature_length())});
+            return flat.reshape(shape);
           },
           py::arg("model"),
-          "Signatures of model `model` (index), a read-only (shells, views, M) float32 view of "
-          "the database's memory; unusable views are all 0.")
+          "Signatures of model `model` (index), a (shells, views, M) float32 array: a read-only "
+          "view of the database's memory, or, for a compact database (the default of "
+          "build_database), a copy of the signatures derived from the stored spectra (smoothed "
+          "as they are); unusable views are all 0.")
       .def("find_model", &ViewDatabase::FindModel, py::arg("name"),
            "Index of the model with this name, or -1.")
       .def(
@@ -546,6 +567,7 @@ void BindDatabase(py::module_& m) {
         const DatabaseBuildOptions build = options.value_or(DatabaseBuildOptions{});
         ViewDatabase database = BuildViewDatabase(mesh_paths, build);
         StoreViewSpectra(&database, CorrelationOptions{}, build.num_threads);
+        if (!build.keep_signatures) database.DropSignatures();
         if (out) database.Write(*out);
         return database;
       },
@@ -559,8 +581,7 @@ void BindDatabase(py::module_& m) {
          std::optional<std::filesystem::path> out) {
         py::gil_scoped_release release;
         ViewDatabase database = MergeViewDatabases(paths);
-        if (std::any_of(database.models.begin(), database.models.end(),
-                        [](const ModelViews& model) { return model.spectra.empty(); })) {
+        if (std::any_of(database.models.begin(), database.models.end(), NeedsStoredSpectra)) {
           StoreViewSpectra(&database);
         }
         if (out) database.Write(*out);

@@ -48,8 +48,9 @@ void CheckDatabaseSize(const BuildDbArguments& arguments) {
   const int threads = arguments.options.num_threads > 0
                           ? arguments.options.num_threads
                           : static_cast<int>(std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN)));
-  const DatabaseSizeEstimate estimate = EstimateDatabaseSize(
-      parameters, static_cast<int>(arguments.models.size()), mesh_bytes, threads);
+  const DatabaseSizeEstimate estimate =
+      EstimateDatabaseSize(parameters, static_cast<int>(arguments.models.size()), mesh_bytes,
+                           threads, arguments.options.keep_signatures);
   auto bytes = [](double value) { return FormatBytes(static_cast<uintmax_t>(value)); };
   std::printf(
       "estimate: %zu models x %d views x %d shells, signatures of %d: a file of about %s, about "
@@ -121,6 +122,9 @@ void RunBuildDb(const BuildDbArguments& arguments) {
   ViewDatabase database = BuildViewDatabase(paths, options);
   // The views' spectra go into the file: opening it then transforms nothing (docs/PERFORMANCE.md).
   StoreViewSpectra(&database, CorrelationOptions{}, options.num_threads);
+  // Unless asked to keep them, the signatures are left out of the file: the pose derives them
+  // from the spectra (docs/database-format.md).
+  if (!options.keep_signatures) database.DropSignatures();
   database.Write(arguments.output);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -178,6 +182,10 @@ void AddBuildDbCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--threads", arguments->options.num_threads, "Worker threads (0 = all cores)")
       ->capture_default_str();
+  command->add_flag("--full-signatures", arguments->options.keep_signatures,
+                    "Also store every view's raw signature (about 4 kB a view and shell more), "
+                    "not only its smoothed spectrum: needed only to match with another "
+                    "signature smoothing than the default");
   command->add_flag("--force", arguments->force,
                     "Build even if the estimated file is larger than 2 GB or match and track would "
                     "need more than 4 GB of memory (never beyond the machine's memory)");

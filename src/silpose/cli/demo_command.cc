@@ -45,6 +45,7 @@ void RunDemo(const DemoArguments& arguments) {
   const auto build_start = std::chrono::steady_clock::now();
   ViewDatabase database = BuildViewDatabase(models, build);
   StoreViewSpectra(&database, CorrelationOptions{}, arguments.threads);
+  database.DropSignatures();
   const std::filesystem::path database_path = output / "demo.db";
   database.Write(database_path);
   std::printf("1. database: %zu models x %d views (%.1f deg apart) in %.1f s -> %s\n",

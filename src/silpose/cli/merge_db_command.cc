@@ -28,9 +28,9 @@ void RunMergeDb(const MergeDbArguments& arguments) {
     }
   }
   ViewDatabase merged = MergeViewDatabases(paths);
-  // Databases of format 3 have no stored spectra: the merged file gets them (fast to open).
-  if (std::any_of(merged.models.begin(), merged.models.end(),
-                  [](const ModelViews& model) { return model.spectra.empty(); })) {
+  // Databases of format 3 have no stored spectra, those of format 4 no amplitudes: the merged
+  // file gets them (fast to open, and format 5).
+  if (std::any_of(merged.models.begin(), merged.models.end(), NeedsStoredSpectra)) {
     StoreViewSpectra(&merged);
   }
   merged.Write(arguments.output);

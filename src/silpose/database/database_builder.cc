@@ -24,21 +24,24 @@ bool DatabaseBuildOptions::Check(std::string* error) const {
 }
 
 DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, int num_models,
-                                          double mesh_bytes, int num_threads) {
+                                          double mesh_bytes, int num_threads,
+                                          bool keep_signatures) {
   const double views = parameters.view_sphere.num_views;
   const double length = parameters.signature.length;
   const double records = views * parameters.num_shells() * std::max(num_models, 0);
-  // Per view and shell: a 25-byte record, M float radii and the stored spectrum (a kind byte, and
-  // a complex float and a magnitude per harmonic the default 2-degree smoothing keeps,
+  // Per view and shell: a 25-byte record, M float radii if kept and the stored spectrum (a kind
+  // byte, an amplitude, and a complex float per harmonic the default 2-degree smoothing keeps,
   // match/view_matcher.h: at most 151, M/2 + 1 for shorter signatures). Per view of the sphere:
   // its direction, bin and neighbour lists (about 64 bytes).
   const double harmonics = std::min(length / 2.0 + 1.0, 151.0);
+  const double signature_bytes = keep_signatures ? 4.0 * length : 0.0;
   DatabaseSizeEstimate estimate;
-  estimate.file_bytes =
-      records * (26.0 + 4.0 * length + 12.0 * harmonics) + views * 64.0 + mesh_bytes + 4096.0;
+  estimate.file_bytes = records * (30.0 + signature_bytes + 8.0 * harmonics) + views * 64.0 +
+                        mesh_bytes + 4096.0;
   const double resolution = parameters.render.resolution_px;
-  estimate.build_memory_bytes =
-      2.0 * estimate.file_bytes + std::max(num_threads, 1) * 2.0 * resolution * resolution;
+  // Building holds every signature, the spectra (with magnitudes) and the serialised file.
+  estimate.build_memory_bytes = records * (4.0 * length + 12.0 * harmonics) + estimate.file_bytes +
+                                std::max(num_threads, 1) * 2.0 * resolution * resolution;
   // Matching maps the file (at most all of it resident) and may make a spectrum per view, plus
   // its bookkeeping, for a matcher with other options than the stored spectra's.
   estimate.match_memory_bytes = estimate.file_bytes + records * (harmonics * 12.0 + 64.0);

@@ -18,6 +18,12 @@ struct DatabaseBuildOptions {
   int num_threads = 0;
   /// Show a progress bar on stderr when it is a terminal.
   bool show_progress = false;
+  /// Keep every view's signature in the database file beside its spectrum. Off by default: the
+  /// file keeps the spectra only (a compact database, ViewDatabase::DropSignatures), about a
+  /// quarter of the size, and the signatures the pose reads are derived from them. Applied by
+  /// whoever writes the database after storing the spectra (build-db; EstimateDatabaseSize
+  /// counts it); BuildViewDatabase itself always returns the signatures.
+  bool keep_signatures = false;
 
   bool Check(std::string* error = nullptr) const;
 };
@@ -33,7 +39,8 @@ struct DatabaseSizeEstimate {
   double match_memory_bytes = 0.0;
 };
 DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, int num_models,
-                                          double mesh_bytes = 0.0, int num_threads = 1);
+                                          double mesh_bytes = 0.0, int num_threads = 1,
+                                          bool keep_signatures = false);
 
 /// Builds the database for the meshes at `mesh_paths` (model names: file stems, which must be
 /// unique). Throws silpose::Error if a mesh cannot be loaded or the options are invalid.

@@ -8,9 +8,12 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <type_traits>
+
+#include <opencv2/core.hpp>
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
@@ -278,14 +281,103 @@ size_t RecordIndex(const ModelViews& model, int view, int shell) {
 }
 }  // namespace
 
+// The signatures of a compact model, derived from its stored spectra as they are asked for: one
+// block of M floats per record, allocated (not touched) per shell on first use.
+struct ModelViews::DerivedSignatures {
+  DerivedSignatures(size_t records, size_t shells, size_t length)
+      : length(length),
+        records_per_shell(records / shells),
+        blocks(shells),
+        block_once(std::make_unique<std::once_flag[]>(shells)),
+        view_once(std::make_unique<std::once_flag[]>(records)) {}
+  size_t length;
+  size_t records_per_shell;
+  std::vector<std::unique_ptr<float[]>> blocks;
+  std::unique_ptr<std::once_flag[]> block_once;
+  std::unique_ptr<std::once_flag[]> view_once;
+};
+
+namespace {
+
+// The smoothed signature of one view from its stored spectrum (StoredSpectra): radii
+// 1 + a * sum_k C_k exp(2 pi i k x / M) over the full Hermitian spectrum, of which the H stored
+// harmonics are the non-zero ones (SignatureSpectrum::amplitude). All 0 for a view without one.
+void DeriveSignature(const StoredSpectra& spectra, size_t record, std::span<float> out) {
+  const size_t length = out.size();
+  const float amplitude = spectra.amplitudes[record];
+  if ((spectra.kinds[record] & StoredSpectra::kPresent) == 0) {
+    std::fill(out.begin(), out.end(), 0.0f);
+    return;
+  }
+  // OpenCV's packed layout of a real signal's spectrum (CCS): Re C_0, Re C_1, Im C_1, ...,
+  // Re C_{M/2}; its inverse without DFT_SCALE is the unnormalised sum above.
+  cv::Mat packed(1, static_cast<int>(length), CV_32F, cv::Scalar(0));
+  auto* p = packed.ptr<float>();
+  const std::complex<float>* c = spectra.coefficients.data() + record * spectra.harmonics;
+  const size_t h = std::min<size_t>(spectra.harmonics, length / 2 + 1);
+  p[0] = c[0].real();
+  for (size_t k = 1; k < h; ++k) {
+    if (k == length / 2) {
+      p[length - 1] = c[k].real();
+    } else {
+      p[2 * k - 1] = c[k].real();
+      p[2 * k] = c[k].imag();
+    }
+  }
+  cv::Mat signal(1, static_cast<int>(length), CV_32F, out.data());
+  cv::dft(packed, signal, cv::DFT_INVERSE | cv::DFT_REAL_OUTPUT);
+  // A radius is never negative; the band-limited sum can dip a rounding error below 0.
+  for (float& r : out) r = std::max(0.0f, 1.0f + amplitude * r);
+}
+
+}  // namespace
+
 std::span<const float> ModelViews::Signature(int view, int shell) const {
-  const size_t length = signatures.size() / views.size();
-  return {signatures.data() + RecordIndex(*this, view, shell) * length, length};
+  const size_t record = RecordIndex(*this, view, shell);
+  if (derived_signatures_ == nullptr) {
+    const size_t length = signatures.size() / views.size();
+    return {signatures.data() + record * length, length};
+  }
+  DerivedSignatures& derived = *derived_signatures_;
+  const size_t s = record / derived.records_per_shell;
+  std::call_once(derived.block_once[s], [&] {
+    derived.blocks[s] = std::make_unique_for_overwrite<float[]>(derived.records_per_shell *
+                                                                 derived.length);
+  });
+  const std::span<float> out(
+      derived.blocks[s].get() + (record % derived.records_per_shell) * derived.length,
+      derived.length);
+  std::call_once(derived.view_once[record], [&] { DeriveSignature(spectra, record, out); });
+  return out;
 }
 
 std::span<float> ModelViews::MutableSignature(int view, int shell) {
+  if (derived_signatures_ != nullptr) {
+    ThrowError("model '", name, "' has no stored signatures to change (a compact database)");
+  }
   const size_t length = signatures.size() / views.size();
   return {signatures.mutable_data() + RecordIndex(*this, view, shell) * length, length};
+}
+
+void ModelViews::DropSignatures(int signature_length) {
+  if (derived_signatures_ != nullptr) return;
+  const size_t records = views.size();
+  // views_per_shell 0: one shell (databases made by hand).
+  const size_t per_shell =
+      views_per_shell > 0 ? static_cast<size_t>(views_per_shell) : std::max<size_t>(records, 1);
+  if (records == 0 || records % per_shell != 0)
+    ThrowError("model '", name, "': cannot drop the signatures of a model without view records");
+  if (signature_length < 2 || signature_length % 2 != 0)
+    ThrowError("model '", name, "': signature length ", signature_length, " is not even");
+  if (spectra.empty() || spectra.amplitudes.size() != records ||
+      spectra.kinds.size() != records || spectra.coefficients.size() != records * spectra.harmonics)
+    ThrowError("model '", name,
+               "': its signatures can only be dropped with stored spectra and amplitudes "
+               "(StoreViewSpectra)");
+  derived_signatures_ = std::make_shared<DerivedSignatures>(
+      records, records / per_shell, static_cast<size_t>(signature_length));
+  signatures = SharedArray<float>();
+  signature_hashes.clear();
 }
 
 const ViewRecord& ModelViews::Record(int view, int shell) const {
@@ -304,7 +396,12 @@ int ViewDatabase::ChooseShell(int model, int view, double apparent_radius) const
 }
 
 int ModelViews::signature_length() const {
+  if (derived_signatures_ != nullptr) return static_cast<int>(derived_signatures_->length);
   return views.empty() ? 0 : static_cast<int>(signatures.size() / views.size());
+}
+
+void ViewDatabase::DropSignatures() {
+  for (ModelViews& model : models) model.DropSignatures(signature_length());
 }
 
 int ViewDatabase::FindModel(const std::string& name) const {
@@ -318,6 +415,18 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
   if (format_version < kOldestReadableVersion || format_version > kFormatVersion)
     ThrowError("cannot write database format version ", format_version, " (",
                kOldestReadableVersion, " to ", kFormatVersion, ")");
+  for (const ModelViews& model : models) {
+    if (format_version < 5 && !model.signatures_stored()) {
+      ThrowError("cannot write database format version ", format_version, ": model '", model.name,
+                 "' has no stored signatures (a compact database; format 5 on)");
+    }
+    if (format_version >= 5 && !model.spectra.empty() &&
+        model.spectra.amplitudes.size() != model.views.size()) {
+      ThrowError("cannot write database format version ", format_version, ": model '", model.name,
+                 "' has stored spectra without amplitudes (made by an older silpose): store them "
+                 "again (StoreViewSpectra)");
+    }
+  }
   std::string error;
   if (!parameters.Check(&error)) ThrowError("cannot write database: ", error);
   const auto num_views = static_cast<uint32_t>(sphere.num_views());
@@ -368,7 +477,8 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
   for (const ModelViews& model : models) {
     const size_t records = static_cast<size_t>(num_views) * parameters.distances_in_radii.size();
     SILPOSE_ASSERT(model.views.size() == records);
-    SILPOSE_ASSERT(model.signatures.size() == records * length);
+    SILPOSE_ASSERT(!model.signatures_stored() || model.signatures.size() == records * length);
+    SILPOSE_ASSERT(model.signature_length() == static_cast<int>(length));
     out.PutString(model.name);
     out.PutString(model.source_path);
     out.Put<uint64_t>(model.mesh_hash);
@@ -400,23 +510,36 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
       continue;
     }
     const size_t shells = parameters.distances_in_radii.size();
-    for (uint64_t hash : BlockHashes<float>(model.signatures, shells)) out.Put<uint64_t>(hash);
-    out.Align();
-    out.PutBulk<float>(model.signatures);
     const StoredSpectra& spectra = model.spectra;
+    // Format 5: whether the signatures follow (else they are derived from the spectra).
+    if (format_version >= 5) out.Put<uint8_t>(model.signatures_stored() ? 1 : 0);
+    if (model.signatures_stored()) {
+      for (uint64_t hash : BlockHashes<float>(model.signatures, shells)) out.Put<uint64_t>(hash);
+      out.Align();
+      out.PutBulk<float>(model.signatures);
+    }
     out.Put<double>(spectra.empty() ? 0.0 : spectra.smoothing_deg);
     out.Put<uint32_t>(spectra.harmonics);
     if (!spectra.empty()) {
       SILPOSE_ASSERT(spectra.kinds.size() == records);
       SILPOSE_ASSERT(spectra.coefficients.size() == records * spectra.harmonics);
-      SILPOSE_ASSERT(spectra.magnitudes.size() == records * spectra.harmonics);
       out.PutArray<uint8_t>(spectra.kinds);
+      if (format_version >= 5) out.PutArray<float>(spectra.amplitudes);
       for (uint64_t hash : BlockHashes<std::complex<float>>(spectra.coefficients, shells))
         out.Put<uint64_t>(hash);
-      for (uint64_t hash : BlockHashes<float>(spectra.magnitudes, shells)) out.Put<uint64_t>(hash);
+      // Format 4 stores the magnitudes too: the moduli of the coefficients.
+      SharedArray<float> magnitudes = spectra.magnitudes;
+      if (format_version == 4 && magnitudes.size() != records * spectra.harmonics) {
+        std::vector<float> moduli(spectra.coefficients.size());
+        for (size_t i = 0; i < moduli.size(); ++i) moduli[i] = std::abs(spectra.coefficients[i]);
+        magnitudes = std::move(moduli);
+      }
+      if (format_version == 4) {
+        for (uint64_t hash : BlockHashes<float>(magnitudes, shells)) out.Put<uint64_t>(hash);
+      }
       out.Align();
       out.PutBulk<std::complex<float>>(spectra.coefficients);
-      out.PutBulk<float>(spectra.magnitudes);
+      if (format_version == 4) out.PutBulk<float>(magnitudes);
     }
   }
 
@@ -483,6 +606,7 @@ bool FiniteNonNegative(const float* values, size_t count, double* sum) {
 
 // Whether a stored spectrum's values are surely valid (finite, magnitudes in [0, 1], |c| clearly
 // below 1): a quick test that vectorises; values it does not pass are checked one by one.
+// `magnitudes` is null when they are not stored (format 5).
 bool SpectrumSurelyValid(const std::complex<float>* coefficients, const float* magnitudes,
                          size_t count) {
   const float* parts = reinterpret_cast<const float*>(coefficients);
@@ -506,6 +630,8 @@ bool SpectrumSurelyValid(const std::complex<float>* coefficients, const float* m
     total += sums[j];
     norm = std::max(norm, largest_norm[j]);
   }
+  // A NaN in a coefficient makes the total NaN and fails the test.
+  if (magnitudes == nullptr) return std::isfinite(total) && norm <= 0.999f;
   double magnitude_sum = 0.0;
   if (!FiniteNonNegative(magnitudes, count, &magnitude_sum)) return false;
   float largest_magnitude = 0.0f;
@@ -531,6 +657,11 @@ void ViewDatabase::CheckViewSignature(int model_index, size_t record) const {
                model.name, "' view ", record % per_shell, " of shell ", record / per_shell, " has ",
                problem);
   };
+  if (!model.signatures_stored()) {
+    // Derived from the stored spectrum (ModelViews::Signature): its values are what is checked.
+    CheckViewSpectrum(model_index, record);
+    return;
+  }
   const size_t length = static_cast<size_t>(signature_length());
   const float* radii = model.signatures.data() + record * length;
   double sum = 0.0;
@@ -548,13 +679,17 @@ void ViewDatabase::CheckViewSpectrum(int model_index, size_t record) const {
   if (spectra.empty()) return;
   const size_t h = spectra.harmonics;
   const std::complex<float>* coefficients = spectra.coefficients.data() + record * h;
-  const float* magnitudes = spectra.magnitudes.data() + record * h;
+  // Format 5 stores no magnitudes (the matcher computes them from the coefficients).
+  const float* magnitudes = spectra.magnitudes.empty() ? nullptr : spectra.magnitudes.data() + record * h;
   if (SpectrumSurelyValid(coefficients, magnitudes, h)) return;
   bool valid = true;
   for (size_t k = 0; k < h; ++k) {
     valid = valid && std::isfinite(coefficients[k].real()) &&
-            std::isfinite(coefficients[k].imag()) && std::isfinite(magnitudes[k]) &&
-            magnitudes[k] >= 0.0f && std::abs(coefficients[k]) <= 1.0f && magnitudes[k] <= 1.0f;
+            std::isfinite(coefficients[k].imag()) && std::abs(coefficients[k]) <= 1.0f;
+    if (magnitudes != nullptr) {
+      valid = valid && std::isfinite(magnitudes[k]) && magnitudes[k] >= 0.0f &&
+              magnitudes[k] <= 1.0f;
+    }
   }
   if (!valid) {
     const size_t per_shell = static_cast<size_t>(sphere.num_views());
@@ -572,6 +707,10 @@ void ViewDatabase::CheckBlock(int model_index, int shell, ViewBlock block) const
   const void* data = nullptr;
   size_t size = 0;
   uint64_t expected = 0;
+  if (block == ViewBlock::kSignatures && !model.signatures_stored()) {
+    // Derived from the stored coefficients: those are the block to check.
+    block = ViewBlock::kCoefficients;
+  }
   if (block == ViewBlock::kSignatures) {
     if (model.signature_hashes.size() <= s) return;
     const size_t values = views * static_cast<size_t>(signature_length());
@@ -731,7 +870,10 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
   const auto num_models = in.Get<uint32_t>("model count");
   if (num_models > kMaxModels) in.Fail("model count ", num_models, " out of range");
   const size_t num_records = static_cast<size_t>(num_views) * num_shells;
-  const size_t per_model_bytes = num_records * (25 + 4 * static_cast<size_t>(length));
+  // At least a record and a signature per view, or (format 5, signatures not stored) a record,
+  // a spectrum kind and an amplitude.
+  const size_t per_model_bytes =
+      num_records * (version >= 5 ? 25 + 1 + 4 : 25 + 4 * static_cast<size_t>(length));
   if (static_cast<size_t>(num_models) * per_model_bytes > in.remaining()) {
     in.Fail(num_models, " models of ", num_views, " views do not fit in the file");
   }
@@ -824,12 +966,20 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
         in.Fail("model '", model.name, "' has a non-finite view record");
       }
     }
-    if (version >= 4) {
-      for (uint32_t s = 0; s < num_shells; ++s)
-        model.signature_hashes.push_back(in.Get<uint64_t>("signature checksums"));
-      in.Align("signatures");
+    bool signatures_stored = true;
+    if (version >= 5) {
+      const auto contents = in.Get<uint8_t>("signature storage");
+      if (contents > 1) in.Fail("model '", model.name, "' has signature storage ", int{contents});
+      signatures_stored = contents == 1;
     }
-    model.signatures = in.GetShared<float>(num_records * length, "signatures", version >= 4);
+    if (signatures_stored) {
+      if (version >= 4) {
+        for (uint32_t s = 0; s < num_shells; ++s)
+          model.signature_hashes.push_back(in.Get<uint64_t>("signature checksums"));
+        in.Align("signatures");
+      }
+      model.signatures = in.GetShared<float>(num_records * length, "signatures", version >= 4);
+    }
     if (std::none_of(model.views.begin(), model.views.end(),
                      [](const ViewRecord& view) { return view.status == SignatureStatus::kOk; })) {
       in.Fail("model '", model.name,
@@ -859,15 +1009,36 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
                     " has spectrum kind ", int{kind}, " that does not fit its record");
           }
         }
+        if (version >= 5) {
+          spectra.amplitudes = in.GetShared<float>(num_records, "spectrum amplitudes");
+          for (size_t r = 0; r < num_records; ++r) {
+            const float amplitude = spectra.amplitudes[r];
+            // The relative spread of a signature (its radii have mean 1) is far below 1e3.
+            if (!std::isfinite(amplitude) || amplitude < 0.0f || amplitude > 1e3f ||
+                ((spectra.kinds[r] & StoredSpectra::kPresent) == 0 && amplitude != 0.0f)) {
+              in.Fail("model '", model.name, "' view ", r % num_views, " of shell ",
+                      r / num_views, " has spectrum amplitude ", amplitude);
+            }
+          }
+        }
         for (uint32_t s = 0; s < num_shells; ++s)
           model.coefficient_hashes.push_back(in.Get<uint64_t>("spectrum checksums"));
-        for (uint32_t s = 0; s < num_shells; ++s)
-          model.magnitude_hashes.push_back(in.Get<uint64_t>("spectrum checksums"));
+        if (version == 4) {
+          for (uint32_t s = 0; s < num_shells; ++s)
+            model.magnitude_hashes.push_back(in.Get<uint64_t>("spectrum checksums"));
+        }
         in.Align("stored spectra");
         const size_t values = num_records * spectra.harmonics;
         spectra.coefficients = in.GetShared<std::complex<float>>(values, "stored spectra", true);
-        spectra.magnitudes = in.GetShared<float>(values, "stored spectrum magnitudes", true);
+        if (version == 4)
+          spectra.magnitudes = in.GetShared<float>(values, "stored spectrum magnitudes", true);
       }
+    }
+    if (!signatures_stored) {
+      if (model.spectra.empty()) {
+        in.Fail("model '", model.name, "' has neither signatures nor stored spectra");
+      }
+      model.DropSignatures(static_cast<int>(length));
     }
   }
   if (in.remaining() != 0) in.Fail(in.remaining(), " unexpected bytes after the last model");

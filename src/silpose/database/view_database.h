@@ -4,8 +4,9 @@
 //
 // File format (docs/database-format.md): little-endian binary, an 8-byte magic number "SILPOSDB",
 // a format version, the payload size, the payload (every generation parameter, per model its name
-// and the XXH64 hash of its mesh file, per view its silhouette record and signature, the graph and
-// bins) and an XXH64 checksum of everything before it. Reading checks magic, version, size and
+// and the XXH64 hash of its mesh file, per view its silhouette record, its spectrum and, unless the
+// database is compact (the default of build-db), its signature, the graph and bins) and an XXH64
+// checksum of everything before it. Reading checks magic, version, size and
 // checksum before it parses anything, and every value after; a truncated, corrupt, foreign or
 // other-version file is refused with a silpose::Error naming the file and the problem.
 
@@ -91,8 +92,14 @@ struct StoredSpectra {
   SharedArray<uint8_t> kinds;
   /// Per record, H coefficients (SignatureSpectrum::coefficients; all 0 where not present).
   SharedArray<std::complex<float>> coefficients;
-  /// Per record, H unweighted magnitudes (SignatureSpectrum::magnitudes).
+  /// Per record, H unweighted magnitudes (SignatureSpectrum::magnitudes). Not stored from format
+  /// 5 on (they are the moduli of the coefficients; the matcher computes them): empty in databases
+  /// read from such files.
   SharedArray<float> magnitudes;
+  /// Per record, SignatureSpectrum::amplitude: what turns the coefficients back into the view's
+  /// smoothed signature (ModelViews::Signature of a database without stored signatures); 0 where
+  /// not present. Empty in databases read from files of format 4 and older.
+  SharedArray<float> amplitudes;
 
   bool empty() const { return harmonics == 0; }
 };
@@ -122,13 +129,14 @@ struct ModelViews {
   /// Signatures in the same order, M values each: (shell s, view v) is
   /// signatures[(s * N + v) * M, (s * N + v + 1) * M). Unusable views are all 0. In a database
   /// read from a file they refer to the mapped file, which they keep alive, also in copies of
-  /// the model (util/shared_array.h).
+  /// the model (util/shared_array.h). Empty when the signatures are not stored (a compact
+  /// database, DropSignatures): Signature() then derives them from the stored spectra.
   SharedArray<float> signatures;
   /// The views' spectra, if stored (see StoredSpectra).
   StoredSpectra spectra;
-  /// As read from a file of format 4: the XXH64 of each shell's block of signatures, stored
-  /// coefficients and stored magnitudes (one per shell each; the latter two empty without stored
-  /// spectra). Checked by ViewDatabase::CheckBlock. Empty for databases made in memory (writing
+  /// As read from a file of format 4 on: the XXH64 of each shell's block of signatures, stored
+  /// coefficients and stored magnitudes (one per shell each; empty for what the file does not
+  /// store: signatures of a compact model, magnitudes from format 5 on). Checked by ViewDatabase::CheckBlock. Empty for databases made in memory (writing
   /// computes them from the data).
   std::vector<uint64_t> signature_hashes;
   std::vector<uint64_t> coefficient_hashes;
@@ -136,13 +144,30 @@ struct ModelViews {
 
   /// Shells held (views.size() / N for N views per shell).
   int num_shells(int num_views_per_shell) const;
-  /// `view` of shell `shell`; view indices are per shell (0..N-1).
+  /// `view` of shell `shell`; view indices are per shell (0..N-1). Without stored signatures
+  /// (signatures_stored() false) the signature is derived from the view's stored spectrum the
+  /// first time it is asked for (one inverse FFT, thread-safe) and kept: it is then the
+  /// signature smoothed as the spectra were (StoredSpectra::smoothing_deg, within about 1e-6),
+  /// not the raw one.
   std::span<const float> Signature(int view, int shell = 0) const;
+  /// Only for a model whose signatures are stored (the database builder's).
   std::span<float> MutableSignature(int view, int shell = 0);
   const ViewRecord& Record(int view, int shell = 0) const;
   int signature_length() const;
+  /// False for a compact model: its signatures are derived from its stored spectra.
+  bool signatures_stored() const { return derived_signatures_ == nullptr; }
+  /// Makes the model compact: frees its signatures, which Signature() then derives from the
+  /// stored spectra. Needs stored spectra with amplitudes (StoreViewSpectra, match/view_matcher.h)
+  /// and the signature length M; throws silpose::Error otherwise. Copies of the model share the
+  /// derived signatures.
+  void DropSignatures(int signature_length);
   /// Views per shell (set by the database; records are views.size() / num_shells of them).
   int views_per_shell = 0;
+
+ private:
+  struct DerivedSignatures;
+  /// Signatures derived from the spectra, for a model whose signatures are not stored.
+  std::shared_ptr<DerivedSignatures> derived_signatures_;
 };
 
 /// The shell rule of ViewDatabase::ChooseShell for one view: `shell_apparent(s)` gives the view's
@@ -175,7 +200,7 @@ int NearestShell(double apparent_radius, const std::vector<double>& distances_in
 enum class ViewChecks {
   /// Everything while reading: the checksum of the whole file, every view's values.
   kAtOpen,
-  /// Format 4 files: the checksum of everything but the bulk at once; each shell's block of
+  /// Format 4 and 5 files: the checksum of everything but the bulk at once; each shell's block of
   /// signatures, coefficients or magnitudes against its own checksum (ViewDatabase::CheckBlock)
   /// and each view's values (ViewDatabase::CheckView) when first used: ViewSpectra checks the
   /// blocks and views it reads (with stored spectra only those, not the signatures), and
@@ -190,9 +215,9 @@ enum class ViewBlock { kSignatures, kCoefficients, kMagnitudes };
 
 class ViewDatabase {
  public:
-  /// Format version written by this build. Versions 2 (without symmetries) and 3 (without stored
-  /// spectra) are read too.
-  static constexpr uint32_t kFormatVersion = 4;
+  /// Format version written by this build. Versions 2 (without symmetries), 3 (without stored
+  /// spectra) and 4 (signatures always stored, with the spectra's magnitudes) are read too.
+  static constexpr uint32_t kFormatVersion = 5;
   static constexpr uint32_t kOldestReadableVersion = 2;
 
   DatabaseParameters parameters;
@@ -220,13 +245,17 @@ class ViewDatabase {
   int ChooseShell(int model, int view, double apparent_radius) const;
   /// Index of the model with this name, or -1.
   int FindModel(const std::string& name) const;
+  /// ModelViews::DropSignatures for every model: the database becomes compact (about 1.2 kB per
+  /// view and shell on disk instead of 5.2 kB at M = 1000; docs/database-format.md).
+  void DropSignatures();
 
   /// Writes the database atomically: to a uniquely named temporary file beside `path`, renamed
   /// over it. A device, FIFO, symbolic link or folder at `path` is refused, never replaced.
   /// Throws silpose::Error naming the file if it cannot be written.
   void Write(const std::filesystem::path& path) const;
-  /// Serialises to bytes (what Write writes): format kFormatVersion, or version 2 (for older
-  /// silpose builds; without the symmetries). Throws silpose::Error for another version.
+  /// Serialises to bytes (what Write writes): format kFormatVersion, or version 4 or 2 (for older
+  /// silpose builds; version 2 without the symmetries; both only with every model's signatures
+  /// stored). Throws silpose::Error for another version.
   std::string Serialize(uint32_t format_version = kFormatVersion) const;
 
   /// Checks the values of record `record` (shell-major index) of `model`: CheckViewSignature and

@@ -89,9 +89,11 @@ ViewDatabase SmallDatabaseWithSpectra() {
     std::vector<uint8_t> kinds(model.views.size());
     std::vector<std::complex<float>> coefficients(model.views.size() * 3);
     std::vector<float> magnitudes(coefficients.size());
+    std::vector<float> amplitudes(model.views.size(), 0.0f);
     for (size_t r = 0; r < model.views.size(); ++r) {
       if (model.views[r].status != SignatureStatus::kOk) continue;
       kinds[r] = StoredSpectra::kPresent | StoredSpectra::kHasVariance | StoredSpectra::kUsable;
+      amplitudes[r] = 0.25f + 0.01f * static_cast<float>(r);
       for (size_t k = 1; k < 3; ++k) {
         coefficients[r * 3 + k] = {0.1f * model.signatures[r * 32 + k], -0.05f};
         magnitudes[r * 3 + k] = std::abs(coefficients[r * 3 + k]);
@@ -100,6 +102,7 @@ ViewDatabase SmallDatabaseWithSpectra() {
     spectra.kinds = std::move(kinds);
     spectra.coefficients = std::move(coefficients);
     spectra.magnitudes = std::move(magnitudes);
+    spectra.amplitudes = std::move(amplitudes);
   }
   return database;
 }
@@ -274,7 +277,7 @@ TEST(ViewDatabaseFile, EverySingleByteCorruptionIsRefused) {
   }
 }
 
-TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
+TEST(ViewDatabaseFile, Format5StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
   const ViewDatabase original = SmallDatabaseWithSpectra();
   const auto path = std::filesystem::temp_directory_path() /
                     ("silpose_mapped_" + std::to_string(::getpid()) + ".db");
@@ -290,7 +293,6 @@ TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
       // The bulk refers to the mapped file, aligned for its element type.
       EXPECT_TRUE(b.signatures.referring());
       EXPECT_TRUE(b.spectra.coefficients.referring());
-      EXPECT_TRUE(b.spectra.magnitudes.referring());
       EXPECT_EQ(reinterpret_cast<uintptr_t>(b.signatures.data()) % 64, 0u);
       EXPECT_EQ(reinterpret_cast<uintptr_t>(b.spectra.coefficients.data()) % 64, 0u);
       EXPECT_EQ(a.signatures, b.signatures);
@@ -298,9 +300,22 @@ TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
       EXPECT_EQ(b.spectra.smoothing_deg, 2.0);
       EXPECT_EQ(a.spectra.kinds, b.spectra.kinds);
       EXPECT_EQ(a.spectra.coefficients, b.spectra.coefficients);
-      EXPECT_EQ(a.spectra.magnitudes, b.spectra.magnitudes);
+      EXPECT_EQ(a.spectra.amplitudes, b.spectra.amplitudes);
+      // Format 5 stores no magnitudes: they are the coefficients' moduli, made by the matcher.
+      EXPECT_TRUE(b.spectra.magnitudes.empty());
       EXPECT_EQ(b.signature_hashes.size(), 2u);
-      EXPECT_EQ(b.magnitude_hashes.size(), 2u);
+      EXPECT_EQ(b.coefficient_hashes.size(), 2u);
+      EXPECT_TRUE(b.magnitude_hashes.empty());
+      // Format 4, for older silpose builds, stores them.
+      const ViewDatabase v4 = ViewDatabase::Deserialize(loaded.Serialize(4), "v4.db");
+      const ModelViews& c = v4.models[m];
+      EXPECT_EQ(c.signatures, a.signatures);
+      EXPECT_EQ(c.spectra.coefficients, a.spectra.coefficients);
+      ASSERT_EQ(c.spectra.magnitudes.size(), a.spectra.coefficients.size());
+      for (size_t i = 0; i < c.spectra.magnitudes.size(); ++i) {
+        EXPECT_EQ(c.spectra.magnitudes[i], std::abs(a.spectra.coefficients[i]));
+      }
+      EXPECT_TRUE(c.spectra.amplitudes.empty());
     }
     // A copy shares the mapping and outlives the original; writing to it copies (never the file).
     ViewDatabase copy = loaded;
@@ -327,13 +342,32 @@ TEST(ViewDatabaseFile, Format4StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
   EXPECT_TRUE(survivor.signatures.referring());
   EXPECT_EQ(survivor.signatures, original.models[1].signatures);
   EXPECT_EQ(survivor.spectra.coefficients, original.models[1].spectra.coefficients);
-  EXPECT_EQ(survivor.spectra.magnitudes, original.models[1].spectra.magnitudes);
 }
 
 TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {
   const std::string bytes = SmallDatabaseWithSpectra().Serialize();
   ASSERT_EQ(LazyErrorOf(bytes), "");
   // The whole file's checksum (the last 8 bytes) is only read by ViewChecks::kAtOpen.
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) {
+    std::string corrupt = bytes;
+    corrupt[i] = static_cast<char>(corrupt[i] ^ 0x10);
+    const std::string message = LazyErrorOf(corrupt);
+    ASSERT_FALSE(message.empty()) << "byte " << i << " changed, file accepted";
+    ASSERT_EQ(message.rfind("test.db: ", 0), 0u) << message;
+  }
+}
+
+// The same for a compact file (signatures not stored, derived from the spectra): its bulk is the
+// coefficients alone, its amplitudes part of the structure.
+TEST(ViewDatabaseFile, CompactFileEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {
+  ViewDatabase compact = SmallDatabaseWithSpectra();
+  compact.DropSignatures();
+  const std::string bytes = compact.Serialize();
+  EXPECT_LT(bytes.size(), SmallDatabaseWithSpectra().Serialize().size() / 2);
+  ViewDatabase read;
+  ASSERT_EQ(LazyErrorOf(bytes, &read), "");
+  EXPECT_FALSE(read.models[1].signatures_stored());
+  EXPECT_EQ(read.models[1].spectra.amplitudes, compact.models[1].spectra.amplitudes);
   for (size_t i = 0; i + 8 < bytes.size(); ++i) {
     std::string corrupt = bytes;
     corrupt[i] = static_cast<char>(corrupt[i] ^ 0x10);
@@ -365,7 +399,7 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
     return static_cast<size_t>(static_cast<const char*>(p) - keep->data());
   };
   const size_t signature = offset(good.models[1].Signature(0, 1).data());
-  const size_t magnitude = offset(good.models[1].spectra.magnitudes.data());
+  const size_t coefficient = offset(good.models[1].spectra.coefficients.data());
   struct Case {
     size_t at;
     int shell;
@@ -374,7 +408,7 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
   };
   for (const Case& c :
        {Case{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
-        Case{magnitude + 3, 0, ViewBlock::kMagnitudes, "stored spectrum magnitudes"}}) {
+        Case{coefficient + 3, 0, ViewBlock::kCoefficients, "stored spectra"}}) {
     // (Named copies: lambdas cannot capture structured bindings in every compiler.)
     const size_t at = c.at;
     const int shell = c.shell;
@@ -397,8 +431,8 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
   }
   // Impossible values behind valid checksums (a crafted file) are refused when the view is used.
   ViewDatabase crafted = SmallDatabaseWithSpectra();
-  crafted.models[0].spectra.magnitudes.mutable_data()[3 * 7 + 1] =
-      std::numeric_limits<float>::infinity();
+  crafted.models[0].spectra.coefficients.mutable_data()[3 * 7 + 1] = {
+      std::numeric_limits<float>::infinity(), 0.0f};
   const ViewDatabase opened = open(crafted.Serialize());
   EXPECT_EQ(error_of([&] { opened.CheckView(0, 6); }), "");
   EXPECT_NE(error_of([&] { opened.CheckView(0, 7); })

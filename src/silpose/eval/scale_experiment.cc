@@ -113,6 +113,7 @@ ScalePoint MeasurePoint(const std::vector<TriangleMesh>& catalogue,
     const Clock::time_point start = Clock::now();
     ViewDatabase built = BuildViewDatabase(paths, build);
     StoreViewSpectra(&built, CorrelationOptions{}, options.build_threads);
+    if (!build.keep_signatures) built.DropSignatures();
     built.Write(file);
     point.build_seconds = Seconds(start);
   }

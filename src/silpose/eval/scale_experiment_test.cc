@@ -131,8 +131,9 @@ TEST(ScaleExperiment, MeasuresEveryPointOnceAndCleansUp) {
   const ScalePoint& more_views = result.points[1];
   const ScalePoint& more_objects = result.points[2];
   EXPECT_EQ(more_objects.objects, 6);
-  // The file is mostly per-view data: doubling the views or tripling the objects scales it.
-  EXPECT_GT(more_views.file_bytes / small.file_bytes, 1.6);
+  // The file grows with the views (about 1.2 kB a view of a compact database, beside the fixed
+  // stored meshes) and with the objects.
+  EXPECT_GT(more_views.file_bytes / small.file_bytes, 1.3);
   EXPECT_LT(more_views.file_bytes / small.file_bytes, 2.1);
   EXPECT_GT(more_objects.file_bytes / small.file_bytes, 2.4);
   EXPECT_LT(more_objects.file_bytes / small.file_bytes, 3.1);

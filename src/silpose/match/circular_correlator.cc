@@ -151,9 +151,13 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
   spectrum->magnitudes.assign(bound_length_, 0.0f);
   // A signature whose variance is at float rounding level has no shape to correlate.
   spectrum->has_variance = sum_squares > 1e-10 * (mean * mean + 1e-30) * length_;
+  spectrum->amplitude = 0.0f;
   if (!spectrum->has_variance) return;
   // Unit norm and the 1/sqrt(M) of the inverse transform, folded into one scale.
   const double scale = 1.0 / std::sqrt(sum_squares * length_);
+  // The inverse of the scale below (and of the renormalisation after smoothing), with the 1/M of
+  // the inverse transform: C = scale * renormalise * window * DFT(r - m).
+  double amplitude = 1.0 / (scale * length_);
   for (size_t x = 0; x < radii.size(); ++x) {
     real_scratch_[x] = static_cast<float>((radii[x] - mean) * scale);
   }
@@ -175,7 +179,9 @@ void CircularCorrelator::Transform(std::span<const float> radii, SignatureSpectr
     }
     const auto renormalise = static_cast<float>(1.0 / std::sqrt(energy));
     for (auto& c : coefficients) c *= renormalise;
+    amplitude /= static_cast<double>(renormalise);
   }
+  spectrum->amplitude = static_cast<float>(amplitude);
   // Harmonics the smoothing removed contribute nothing to the bound: they are left out of it.
   float* magnitudes = spectrum->magnitudes.mutable_data();
   for (size_t k = 0; k < bound_length_; ++k) {

@@ -50,6 +50,10 @@ struct SignatureSpectrum {
   SharedArray<float> magnitudes;
   /// False if the signature was constant (no variance): every correlation with it is 0.
   bool has_variance = false;
+  /// What turns the coefficients back into the smoothed signature r_s (of the radii given to
+  /// CircularCorrelator::Transform, whose mean is m): r_s(x) = m + amplitude * sum_k C_k
+  /// exp(2 pi i k x / M), summed over the full Hermitian spectrum. 0 without variance.
+  float amplitude = 0.0f;
 };
 
 struct CorrelationPeak {

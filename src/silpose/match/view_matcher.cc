@@ -56,6 +56,7 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
   magnitudes_once_ = std::make_unique<std::once_flag[]>(blocks);
   signatures_once_ = std::make_unique<std::once_flag[]>(blocks);
   heads_.resize(blocks);
+  magnitudes_.resize(blocks);
   heads_once_ = std::make_unique<std::once_flag[]>(blocks);
   once_ = std::make_unique<std::once_flag[]>(total);
   usable_.assign(total, 0);
@@ -77,6 +78,15 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
     const StoredSpectra& stored = model.spectra;
     stored_[static_cast<size_t>(m)] = !stored.empty() && stored.harmonics == harmonics &&
                                       stored.smoothing_deg == options_.smoothing_deg;
+    if (stored_[static_cast<size_t>(m)] == 0 && !model.signatures_stored()) {
+      // Its signatures are derived from the stored spectra, already smoothed: no other spectra
+      // can be made from them.
+      ThrowError(database.source.empty() ? std::string("database") : database.source,
+                 ": model '", model.name, "' keeps only its views' spectra smoothed by ",
+                 stored.smoothing_deg, " degrees (a compact database), not the signatures a "
+                 "smoothing of ", options_.smoothing_deg,
+                 " degrees needs: rebuild it with 'silpose build-db --full-signatures'");
+    }
     for (int s = 0; s < num_shells_; ++s) {
       for (int v = 0; v < num_views_; ++v) {
         const size_t index = Index(m, s) * static_cast<size_t>(num_views_) + static_cast<size_t>(v);
@@ -108,7 +118,7 @@ void ViewSpectra::OpenBlock(int model, int shell) const {
       // whoever reads them (CheckSignatures): hashing 4 MB of signatures per model and shell was
       // most of a first frame's time.
       database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
-      (void)Magnitudes(model, 0, shell);  // checks the magnitudes once
+      (void)Magnitudes(model, 0, shell);  // checks (or makes) the magnitudes once
     } else {
       CheckSignatures(model, shell);  // the spectra are made from them
     }
@@ -117,6 +127,23 @@ void ViewSpectra::OpenBlock(int model, int shell) const {
       std::make_unique<SignatureSpectrum[]>(static_cast<size_t>(num_views_));
   spectrum_bytes_.fetch_add(static_cast<size_t>(num_views_) * sizeof(SignatureSpectrum),
                             std::memory_order_relaxed);
+}
+
+void ViewSpectra::OpenMagnitudes(int model, int shell) const {
+  const StoredSpectra& stored = database_.models[static_cast<size_t>(model)].spectra;
+  if (!stored.magnitudes.empty()) {
+    if (database_.views_unchecked) database_.CheckBlock(model, shell, ViewBlock::kMagnitudes);
+    return;
+  }
+  // Their coefficients' block is checked first: a corrupt one is reported, not bounded.
+  if (database_.views_unchecked) database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
+  const size_t count = static_cast<size_t>(num_views_) * stored.harmonics;
+  const std::complex<float>* coefficients =
+      stored.coefficients.data() + static_cast<size_t>(shell) * count;
+  auto magnitudes = std::make_unique_for_overwrite<float[]>(count);
+  for (size_t i = 0; i < count; ++i) magnitudes[i] = std::abs(coefficients[i]);
+  magnitudes_[Index(model, shell)] = std::move(magnitudes);
+  spectrum_bytes_.fetch_add(count * sizeof(float), std::memory_order_relaxed);
 }
 
 void ViewSpectra::MakeBoundHeads(int model, int shell) const {
@@ -165,9 +192,10 @@ void ViewSpectra::Compute(int model, int view, int shell) const {
     SignatureSpectrum& spectrum = blocks_[Index(model, shell)][static_cast<size_t>(view)];
     spectrum.coefficients = SharedArray<std::complex<float>>::Refer(
         stored.coefficients.data() + record * stored.harmonics, stored.harmonics);
-    spectrum.magnitudes = SharedArray<float>::Refer(
-        stored.magnitudes.data() + record * stored.harmonics, stored.harmonics);
+    spectrum.magnitudes = SharedArray<float>::Refer(Magnitudes(model, view, shell).data(),
+                                                    stored.harmonics);
     spectrum.has_variance = (stored.kinds[record] & StoredSpectra::kHasVariance) != 0;
+    spectrum.amplitude = stored.amplitudes.empty() ? 0.0f : stored.amplitudes[record];
     num_computed_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
@@ -187,6 +215,7 @@ void ViewSpectra::Compute(int model, int view, int shell) const {
   stored.coefficients.assign(full.coefficients.begin(), full.coefficients.begin() + kept);
   stored.magnitudes.assign(full.magnitudes.begin(), full.magnitudes.end());
   stored.has_variance = full.has_variance;
+  stored.amplitude = full.amplitude;
   num_computed_.fetch_add(1, std::memory_order_relaxed);
   spectrum_bytes_.fetch_add(stored.coefficients.owned_bytes() + stored.magnitudes.owned_bytes(),
                             std::memory_order_relaxed);
@@ -234,18 +263,23 @@ void ViewSpectra::ComputeAll(int num_threads) const {
 }
 
 void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options, int num_threads) {
-  // Drop what was stored, so that the spectra below are computed, not lent.
-  for (ModelViews& model : database->models) model.spectra = StoredSpectra{};
+  const size_t harmonics = CircularCorrelator(database->signature_length(), options).harmonics();
+  // Drop what was stored, so that the spectra below are computed, not lent; a compact model's
+  // spectra are its only data: they are kept if they are these (else ViewSpectra refuses them).
+  for (ModelViews& model : database->models) {
+    if (model.signatures_stored()) model.spectra = StoredSpectra{};
+  }
   const ViewSpectra spectra(*database, options);
   spectra.ComputeAll(num_threads);
-  const size_t harmonics = CircularCorrelator(database->signature_length(), options).harmonics();
   const int views = database->num_views();
   for (int m = 0; m < spectra.num_models(); ++m) {
     ModelViews& model = database->models[static_cast<size_t>(m)];
+    if (!model.signatures_stored()) continue;
     const size_t records = model.views.size();
     std::vector<uint8_t> kinds(records, 0);
     std::vector<std::complex<float>> coefficients(records * harmonics);
     std::vector<float> magnitudes(records * harmonics);
+    std::vector<float> amplitudes(records, 0.0f);
     for (size_t r = 0; r < records; ++r) {
       const int view = static_cast<int>(r % static_cast<size_t>(views));
       const int shell = static_cast<int>(r / static_cast<size_t>(views));
@@ -260,6 +294,7 @@ void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options,
                 coefficients.begin() + static_cast<std::ptrdiff_t>(r * harmonics));
       std::copy(spectrum.magnitudes.begin(), spectrum.magnitudes.end(),
                 magnitudes.begin() + static_cast<std::ptrdiff_t>(r * harmonics));
+      amplitudes[r] = spectrum.amplitude;
     }
     // `spectra` made every view's spectrum from the signatures above: replacing this model's stored
     // spectra changes none of them.
@@ -269,6 +304,7 @@ void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options,
     stored.kinds = std::move(kinds);
     stored.coefficients = std::move(coefficients);
     stored.magnitudes = std::move(magnitudes);
+    stored.amplitudes = std::move(amplitudes);
     model.spectra = std::move(stored);
   }
 }

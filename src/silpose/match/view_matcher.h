@@ -91,14 +91,15 @@ class ViewSpectra {
   /// which checks), else Get(...).magnitudes.
   std::span<const float> Magnitudes(int model, int view, int shell = 0) const {
     if (stored_[static_cast<size_t>(model)] != 0) {
-      if (database_.views_unchecked) {
-        std::call_once(magnitudes_once_[Index(model, shell)],
-                       [&] { database_.CheckBlock(model, shell, ViewBlock::kMagnitudes); });
-      }
+      const size_t block = Index(model, shell);
+      std::call_once(magnitudes_once_[block], [&] { OpenMagnitudes(model, shell); });
       const StoredSpectra& stored = database_.models[static_cast<size_t>(model)].spectra;
-      const size_t record =
-          static_cast<size_t>(shell) * static_cast<size_t>(num_views_) + static_cast<size_t>(view);
-      return {stored.magnitudes.data() + record * stored.harmonics, stored.harmonics};
+      const float* magnitudes = stored.magnitudes.empty()
+                                    ? magnitudes_[block].get()
+                                    : stored.magnitudes.data() + static_cast<size_t>(shell) *
+                                                                     static_cast<size_t>(num_views_) *
+                                                                     stored.harmonics;
+      return {magnitudes + static_cast<size_t>(view) * stored.harmonics, stored.harmonics};
     }
     return Get(model, view, shell).magnitudes.span();
   }
@@ -170,6 +171,9 @@ class ViewSpectra {
   }
   void Compute(int model, int view, int shell) const;
   void OpenBlock(int model, int shell) const;
+  /// A stored-spectra block's magnitudes: checked against their checksum (format 4, read with
+  /// ViewChecks::kOnFirstUse), or computed from the coefficients (format 5, which stores none).
+  void OpenMagnitudes(int model, int shell) const;
   void MakeBoundHeads(int model, int shell) const;
 
   const ViewDatabase& database_;
@@ -181,8 +185,10 @@ class ViewSpectra {
   /// Per (model, shell): its views' spectra (allocated on first use), each made on first use.
   mutable std::vector<std::unique_ptr<SignatureSpectrum[]>> blocks_;
   std::unique_ptr<std::once_flag[]> block_once_;
-  /// Per (model, shell): its stored magnitudes, its signatures checked (ViewChecks::kOnFirstUse).
+  /// Per (model, shell): its stored magnitudes checked (ViewChecks::kOnFirstUse) or computed (in
+  /// magnitudes_; format 5), its signatures checked (ViewChecks::kOnFirstUse).
   std::unique_ptr<std::once_flag[]> magnitudes_once_;
+  mutable std::vector<std::unique_ptr<float[]>> magnitudes_;
   std::unique_ptr<std::once_flag[]> signatures_once_;
   /// Per (model, shell): BoundHeads, made on first use.
   mutable std::vector<std::unique_ptr<float[]>> heads_;
@@ -200,9 +206,18 @@ class ViewSpectra {
   mutable std::atomic<size_t> spectrum_bytes_{0};
 };
 
+/// Whether a model's stored spectra are missing or lack their amplitudes (read from a file of
+/// format 3 or 4): a database with such a model needs StoreViewSpectra before it is written.
+inline bool NeedsStoredSpectra(const ModelViews& model) {
+  return model.spectra.empty() || model.spectra.amplitudes.size() != model.views.size();
+}
+
 /// Computes the spectra of every view of every model (as ViewSpectra would with `options`) into
 /// ModelViews::spectra, so that written databases carry them (build-db does this), on
-/// `num_threads` threads (0 = all available cores). Replaces spectra stored before.
+/// `num_threads` threads (0 = all available cores), with the amplitudes that turn them back into
+/// the smoothed signatures. Replaces spectra stored before, except those of compact models
+/// (ModelViews::DropSignatures), which are kept: they are the only data of such a model (a
+/// compact model whose spectra were made with another smoothing is refused, silpose::Error).
 void StoreViewSpectra(ViewDatabase* database, const CorrelationOptions& options = {},
                       int num_threads = 0);
 

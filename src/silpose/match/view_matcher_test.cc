@@ -538,8 +538,9 @@ TEST(ViewSpectra, StoredSpectraAreLentFromTheFileAndEqualTheComputedOnes) {
     }
   }
   EXPECT_EQ(stored.num_computed(), computed.num_computed());
-  // The lent spectra are not counted as this object's memory.
-  EXPECT_LT(stored.MemoryBytes(), computed.MemoryBytes() / 4);
+  // The lent coefficients are not counted as this object's memory (the magnitudes it made from
+  // them are: a third of a spectrum's bytes).
+  EXPECT_LT(stored.MemoryBytes(), computed.MemoryBytes() / 2);
   // Matching through either gives the same candidates.
   ViewMatcher from_file(stored);
   ViewMatcher from_memory(computed);
@@ -566,8 +567,8 @@ TEST(ViewSpectra, ACorruptStoredSpectrumIsNamedWhenTheMatcherFirstUsesIt) {
   StoreViewSpectra(&synthetic.database);
   // A crafted file: an impossible value behind valid checksums.
   const uint32_t harmonics = synthetic.database.models[1].spectra.harmonics;
-  synthetic.database.models[1].spectra.magnitudes.mutable_data()[harmonics * 7 + 2] =
-      std::numeric_limits<float>::quiet_NaN();
+  synthetic.database.models[1].spectra.coefficients.mutable_data()[harmonics * 7 + 2] = {
+      std::numeric_limits<float>::quiet_NaN(), 0.0f};
   const auto path = TemporaryDatabasePath("corrupt_spectra");
   synthetic.database.Write(path);
   const std::string expected = path.string() +
@@ -675,6 +676,112 @@ TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTh
               std::string::npos)
         << error.what();
   }
+}
+
+
+// A compact database keeps only the spectra; the signatures the pose reads are derived from them.
+// They must be the stored signatures smoothed as the spectra were: for these synthetic ones (a few
+// harmonics a_k cos + b_k sin) harmonic k is scaled by exp(-(k s)^2 / 2), s the smoothing in
+// radians.
+TEST(CompactDatabase, DerivedSignaturesAreTheStoredOnesSmoothedAsTheSpectra) {
+  SyntheticDatabase synthetic = MakeTwoShellDatabase(3, 60, 1000, 41);
+  GiveModelsAnExtent(&synthetic.database);
+  StoreViewSpectra(&synthetic.database, CorrelationOptions{}, 2);
+  const ViewDatabase full = synthetic.database;
+  ViewDatabase compact = synthetic.database;
+  compact.DropSignatures();
+  const double sigma = 2.0 * std::numbers::pi / 180.0;
+  double largest_error = 0.0;
+  for (int m = 0; m < 3; ++m) {
+    EXPECT_TRUE(full.models[static_cast<size_t>(m)].signatures_stored());
+    EXPECT_FALSE(compact.models[static_cast<size_t>(m)].signatures_stored());
+    EXPECT_TRUE(compact.models[static_cast<size_t>(m)].signatures.empty());
+    EXPECT_EQ(compact.models[static_cast<size_t>(m)].signature_length(), 1000);
+    for (int v = 0; v < 60; ++v) {
+      const std::vector<double>& terms = synthetic.terms[static_cast<size_t>(m)][static_cast<size_t>(v)];
+      const std::span<const float> raw = full.models[static_cast<size_t>(m)].Signature(v, 0);
+      const std::span<const float> derived = compact.models[static_cast<size_t>(m)].Signature(v, 0);
+      ASSERT_EQ(derived.size(), 1000u);
+      double mean = 0.0;
+      for (float r : raw) mean += r;
+      mean /= 1000.0;
+      for (int x = 0; x < 1000; ++x) {
+        const double t = 2.0 * std::numbers::pi * x / 1000.0;
+        double r = 1.0;
+        for (size_t k = 0; k < terms.size() / 2; ++k) {
+          const double f = static_cast<double>(k + 1);
+          const double weight = std::exp(-0.5 * f * f * sigma * sigma);
+          r += weight * (terms[2 * k] * std::cos(f * t) + terms[2 * k + 1] * std::sin(f * t));
+        }
+        // MakeDatabase divides the radii by their mean (1 up to rounding for these terms).
+        largest_error = std::max(largest_error,
+                                 std::abs(r / (mean * raw.size() / 1000.0) -
+                                          derived[static_cast<size_t>(x)]));
+      }
+      // Shell 1 holds the signatures reversed: derived the same way.
+      const std::span<const float> raw1 = full.models[static_cast<size_t>(m)].Signature(v, 1);
+      const std::span<const float> derived1 = compact.models[static_cast<size_t>(m)].Signature(v, 1);
+      if (full.models[static_cast<size_t>(m)].Record(v, 1).status == SignatureStatus::kOk) {
+        EXPECT_NEAR(derived1[10], derived[989], 1e-4) << m << " " << v;
+        EXPECT_NEAR(derived1[500], derived[499], 1e-4) << m << " " << v;
+        EXPECT_GT(raw1[0], 0.0f);
+      } else {
+        EXPECT_TRUE(std::all_of(derived1.begin(), derived1.end(), [](float r) { return r == 0; }));
+      }
+    }
+  }
+  EXPECT_LT(largest_error, 2e-5);
+  // The same view asked for twice (or from a copy of the model) is the same memory.
+  const ModelViews copy = compact.models[1];
+  EXPECT_EQ(copy.Signature(5, 0).data(), compact.models[1].Signature(5, 0).data());
+  EXPECT_THROW(compact.models[1].MutableSignature(5, 0), Error);
+
+  // Written and read back: about a quarter of the file, the same derived signatures, the same
+  // matches as the full database, and a format-4 file (which needs signatures) is refused.
+  const auto full_path = TemporaryDatabasePath("full");
+  const auto compact_path = TemporaryDatabasePath("compact");
+  full.Write(full_path);
+  compact.Write(compact_path);
+  const auto full_bytes = std::filesystem::file_size(full_path);
+  const auto compact_bytes = std::filesystem::file_size(compact_path);
+  EXPECT_LT(compact_bytes, full_bytes / 3) << compact_bytes << " vs " << full_bytes;
+  const ViewDatabase full_read = ViewDatabase::Read(full_path);
+  const ViewDatabase compact_read = ViewDatabase::Read(compact_path);
+  std::filesystem::remove(full_path);
+  std::filesystem::remove(compact_path);
+  EXPECT_FALSE(compact_read.models[2].signatures_stored());
+  for (int v : {0, 17, 59}) {
+    const std::span<const float> a = compact.models[2].Signature(v, 0);
+    const std::span<const float> b = compact_read.models[2].Signature(v, 0);
+    EXPECT_TRUE(std::equal(a.begin(), a.end(), b.begin())) << v;
+  }
+  EXPECT_THROW((void)compact.Serialize(4), Error);
+  const ViewSpectra from_full(full_read);
+  const ViewSpectra from_compact(compact_read);
+  // Checking a compact model's "signatures" checks the spectra they come from.
+  from_compact.CheckSignatures(2, 1);
+  ViewMatcher a(from_full);
+  ViewMatcher b(from_compact);
+  std::mt19937 rng(9);
+  for (int query = 0; query < 5; ++query) {
+    const std::vector<float> radii = RandomSignature(rng, 1000, 11.0 * query);
+    MatchOptions options;
+    options.apparent_radius = 0.1;
+    ExpectSameCandidates(a.Match(radii, options), b.Match(radii, options));
+  }
+  // The spectra of a compact database serve only their own smoothing.
+  CorrelationOptions other;
+  other.smoothing_deg = 1.0;
+  try {
+    const ViewSpectra resmoothed(compact_read, other);
+    ADD_FAILURE() << "a compact database was resmoothed";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("--full-signatures"), std::string::npos)
+        << error.what();
+  }
+  // Without stored spectra there is nothing to derive the signatures from.
+  ViewDatabase bare = MakeDatabase(1, 20, 1000, 3).database;
+  EXPECT_THROW(bare.DropSignatures(), Error);
 }
 
 }  // namespace
