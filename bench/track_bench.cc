@@ -44,9 +44,16 @@ const Fixture& GetFixture() {
     const std::vector<std::filesystem::path> models = BenchModels();
     DatabaseBuildOptions build;
     build.num_threads = 0;
-    f->database = BuildViewDatabase(models, build);
-    // With its spectra, as `silpose build-db` writes it.
-    StoreViewSpectra(&f->database, CorrelationOptions{}, 0);
+    f->folder = std::filesystem::temp_directory_path() / "silpose_track_bench";
+    std::filesystem::create_directories(f->folder);
+    {
+      // As `silpose build-db` writes it (spectra stored, signatures not), read back mapped.
+      ViewDatabase built = BuildViewDatabase(models, build);
+      StoreViewSpectra(&built, CorrelationOptions{}, 0);
+      built.DropSignatures();
+      built.Write(f->folder / "database.db");
+    }
+    f->database = ViewDatabase::Read(f->folder / "database.db");
     f->spectra = std::make_unique<ViewSpectra>(f->database);
     std::filesystem::path flown = models.front();
     for (const auto& model : models)
@@ -58,8 +65,6 @@ const Fixture& GetFixture() {
     options.colour.noise_sigma = 3.0;
     const SyntheticSequence sequence({LoadMesh(flown)}, options);
     f->camera = sequence.camera();
-    f->folder = std::filesystem::temp_directory_path() / "silpose_track_bench";
-    std::filesystem::create_directories(f->folder);
     const cv::Size size(f->camera.width_px, f->camera.height_px);
     VideoWriterOptions lossless;
     lossless.avi_codec = AviCodec::kPng;

@@ -370,18 +370,20 @@ def masks():
                                        36 < (x - 8) ** 2 + (y - 16) ** 2 < 150))
 
 
-# --- database: a tiny database of the anchor (raw file, and payload only: see the fuzzer). The
-# seeds tiny_v3.db and tiny_payload_v3 are the same in format version 3 (kept from an older
-# silpose, for the reader of that version).
+# --- database: a tiny database of the anchor (raw file, and payload only: see the fuzzer), compact
+# (build-db's default) and with full signatures. The seeds tiny_v3.db, tiny_payload_v3, tiny_v4.db
+# and tiny_payload_v4 are the same in format versions 3 and 4 (kept from older silpose builds, for
+# the readers of those versions).
 def databases(silpose, scratch):
-    path = os.path.join(scratch, "tiny.db")
-    subprocess.run([silpose, "build-db", os.path.join(ROOT, "data", "models", "anchor.obj"),
-                    "-o", path, "--views", "12", "--signature-length", "16", "--resolution", "64",
-                    "--distances", "3", "7.5", "--bins", "3", "--threads", "1"],
-                   check=True, stdout=subprocess.DEVNULL)
-    data = read(path)
-    put("database", "tiny.db", b"\x01" + data)
-    put("database", "tiny_payload", b"\x00" + data[20:-8])
+    for name, extra in (("tiny", []), ("tiny_full", ["--full-signatures"])):
+        path = os.path.join(scratch, name + ".db")
+        subprocess.run([silpose, "build-db", os.path.join(ROOT, "data", "models", "anchor.obj"),
+                        "-o", path, "--views", "12", "--signature-length", "16", "--resolution",
+                        "64", "--distances", "3", "7.5", "--bins", "3", "--threads", "1"] + extra,
+                       check=True, stdout=subprocess.DEVNULL)
+        data = read(path)
+        put("database", name + ".db", b"\x01" + data)
+        put("database", name + "_payload", b"\x00" + data[20:-8])
 
 
 # --- BOP: models_info.json, scene_camera.json, scene_gt.json, scene_gt_info.json, NUL-separated

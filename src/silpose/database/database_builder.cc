@@ -42,9 +42,11 @@ DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, 
   // Building holds every signature, the spectra (with magnitudes) and the serialised file.
   estimate.build_memory_bytes = records * (4.0 * length + 12.0 * harmonics) + estimate.file_bytes +
                                 std::max(num_threads, 1) * 2.0 * resolution * resolution;
-  // Matching maps the file (at most all of it resident) and may make a spectrum per view, plus
-  // its bookkeeping, for a matcher with other options than the stored spectra's.
-  estimate.match_memory_bytes = estimate.file_bytes + records * (harmonics * 12.0 + 64.0);
+  // Matching maps the file (at most all of it resident) and makes the magnitudes of every view it
+  // bounds, plus its bookkeeping; with the signatures kept, a matcher with other options than the
+  // stored spectra's may make a whole spectrum per view instead.
+  estimate.match_memory_bytes =
+      estimate.file_bytes + records * (harmonics * (keep_signatures ? 12.0 : 4.0) + 64.0);
   return estimate;
 }
 
