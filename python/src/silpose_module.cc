@@ -485,10 +485,10 @@ void BindDatabase(py::module_& m) {
                          " models)");
             }
             const ModelViews& views = database.models[static_cast<size_t>(model)];
-            const auto shape = std::vector<py::ssize_t>{
-                static_cast<py::ssize_t>(database.num_shells()),
-                static_cast<py::ssize_t>(database.num_views()),
-                static_cast<py::ssize_t>(database.signature_length())};
+            const auto shape =
+                std::vector<py::ssize_t>{static_cast<py::ssize_t>(database.num_shells()),
+                                         static_cast<py::ssize_t>(database.num_views()),
+                                         static_cast<py::ssize_t>(database.signature_length())};
             if (!views.signatures_stored()) {
               // A compact database: each signature derived from its stored spectrum, copied.
               py::array_t<float> derived(shape);

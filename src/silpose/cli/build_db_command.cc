@@ -131,9 +131,11 @@ void RunBuildDb(const BuildDbArguments& arguments) {
   PrintDatabaseSummary(database);
   std::error_code error;
   const auto size = std::filesystem::file_size(arguments.output, error);
-  std::printf("wrote %s: %zu models x %d views, signatures of %d, %s, in %.1f s\n",
+  std::printf("wrote %s: %zu models x %d views, signatures of %d (%s), %s, in %.1f s\n",
               arguments.output.c_str(), database.models.size(), database.num_views(),
-              database.signature_length(), error ? "?" : FormatBytes(size).c_str(), seconds);
+              database.signature_length(),
+              options.keep_signatures ? "stored" : "derived from the stored spectra",
+              error ? "?" : FormatBytes(size).c_str(), seconds);
 }
 
 }  // namespace

@@ -36,8 +36,8 @@ DatabaseSizeEstimate EstimateDatabaseSize(const DatabaseParameters& parameters, 
   const double harmonics = std::min(length / 2.0 + 1.0, 151.0);
   const double signature_bytes = keep_signatures ? 4.0 * length : 0.0;
   DatabaseSizeEstimate estimate;
-  estimate.file_bytes = records * (30.0 + signature_bytes + 8.0 * harmonics) + views * 64.0 +
-                        mesh_bytes + 4096.0;
+  estimate.file_bytes =
+      records * (30.0 + signature_bytes + 8.0 * harmonics) + views * 64.0 + mesh_bytes + 4096.0;
   const double resolution = parameters.render.resolution_px;
   // Building holds every signature, the spectra (with magnitudes) and the serialised file.
   estimate.build_memory_bytes = records * (4.0 * length + 12.0 * harmonics) + estimate.file_bytes +

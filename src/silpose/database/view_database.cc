@@ -9,11 +9,10 @@
 #include <fstream>
 #include <limits>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <set>
 #include <sstream>
 #include <type_traits>
-
-#include <opencv2/core.hpp>
 
 #include "silpose/util/error.h"
 #include "silpose/util/hash.h"
@@ -197,6 +196,9 @@ class Reader {
   std::vector<std::pair<size_t, size_t>> bulk_;
 };
 
+// What a model without stored spectra has.
+const StoredSpectra kNoSpectra{};
+
 // Counts read from the file are checked against this before anything is allocated.
 constexpr uint32_t kMaxViews = 1'000'000;
 constexpr uint32_t kMaxModels = 100'000;
@@ -283,13 +285,18 @@ size_t RecordIndex(const ModelViews& model, int view, int shell) {
 
 // The signatures of a compact model, derived from its stored spectra as they are asked for: one
 // block of M floats per record, allocated (not touched) per shell on first use.
+// The spectra they are derived from are held here (their arrays share the data, or the mapped
+// file, with the model's): a copy of the model whose `spectra` are later replaced still derives
+// from the spectra its cache was made for.
 struct ModelViews::DerivedSignatures {
-  DerivedSignatures(size_t records, size_t shells, size_t length)
-      : length(length),
+  DerivedSignatures(const StoredSpectra& spectra, size_t records, size_t shells, size_t length)
+      : spectra(spectra),
+        length(length),
         records_per_shell(records / shells),
         blocks(shells),
         block_once(std::make_unique<std::once_flag[]>(shells)),
         view_once(std::make_unique<std::once_flag[]>(records)) {}
+  StoredSpectra spectra;
   size_t length;
   size_t records_per_shell;
   std::vector<std::unique_ptr<float[]>> blocks;
@@ -315,7 +322,7 @@ void DeriveSignature(const StoredSpectra& spectra, size_t record, std::span<floa
   auto* p = packed.ptr<float>();
   const std::complex<float>* c = spectra.coefficients.data() + record * spectra.harmonics;
   const size_t h = std::min<size_t>(spectra.harmonics, length / 2 + 1);
-  p[0] = c[0].real();
+  // C_0 is 0 (the spectrum of a zero-mean signature): the radii keep mean 1 whatever is stored.
   for (size_t k = 1; k < h; ++k) {
     if (k == length / 2) {
       p[length - 1] = c[k].real();
@@ -341,13 +348,13 @@ std::span<const float> ModelViews::Signature(int view, int shell) const {
   DerivedSignatures& derived = *derived_signatures_;
   const size_t s = record / derived.records_per_shell;
   std::call_once(derived.block_once[s], [&] {
-    derived.blocks[s] = std::make_unique_for_overwrite<float[]>(derived.records_per_shell *
-                                                                 derived.length);
+    derived.blocks[s] =
+        std::make_unique_for_overwrite<float[]>(derived.records_per_shell * derived.length);
   });
   const std::span<float> out(
       derived.blocks[s].get() + (record % derived.records_per_shell) * derived.length,
       derived.length);
-  std::call_once(derived.view_once[record], [&] { DeriveSignature(spectra, record, out); });
+  std::call_once(derived.view_once[record], [&] { DeriveSignature(derived.spectra, record, out); });
   return out;
 }
 
@@ -369,13 +376,13 @@ void ModelViews::DropSignatures(int signature_length) {
     ThrowError("model '", name, "': cannot drop the signatures of a model without view records");
   if (signature_length < 2 || signature_length % 2 != 0)
     ThrowError("model '", name, "': signature length ", signature_length, " is not even");
-  if (spectra.empty() || spectra.amplitudes.size() != records ||
-      spectra.kinds.size() != records || spectra.coefficients.size() != records * spectra.harmonics)
+  if (spectra.empty() || spectra.amplitudes.size() != records || spectra.kinds.size() != records ||
+      spectra.coefficients.size() != records * spectra.harmonics)
     ThrowError("model '", name,
                "': its signatures can only be dropped with stored spectra and amplitudes "
                "(StoreViewSpectra)");
-  derived_signatures_ = std::make_shared<DerivedSignatures>(
-      records, records / per_shell, static_cast<size_t>(signature_length));
+  derived_signatures_ = std::make_shared<DerivedSignatures>(spectra, records, records / per_shell,
+                                                            static_cast<size_t>(signature_length));
   signatures = SharedArray<float>();
   signature_hashes.clear();
 }
@@ -420,11 +427,10 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
       ThrowError("cannot write database format version ", format_version, ": model '", model.name,
                  "' has no stored signatures (a compact database; format 5 on)");
     }
-    if (format_version >= 5 && !model.spectra.empty() &&
-        model.spectra.amplitudes.size() != model.views.size()) {
-      ThrowError("cannot write database format version ", format_version, ": model '", model.name,
-                 "' has stored spectra without amplitudes (made by an older silpose): store them "
-                 "again (StoreViewSpectra)");
+    if (!model.signatures_stored() &&
+        (model.spectra.empty() || model.spectra.amplitudes.size() != model.views.size())) {
+      ThrowError("cannot write model '", model.name,
+                 "': its signatures are not stored and its spectra are missing or incomplete");
     }
   }
   std::string error;
@@ -510,7 +516,12 @@ std::string ViewDatabase::Serialize(uint32_t format_version) const {
       continue;
     }
     const size_t shells = parameters.distances_in_radii.size();
-    const StoredSpectra& spectra = model.spectra;
+    // Spectra without amplitudes (read from a format-4 file) are not written in format 5: the
+    // model keeps its signatures, from which a matcher makes the spectra when first used (and
+    // StoreViewSpectra, as merge-db does, stores them again with their amplitudes).
+    const bool incomplete =
+        format_version >= 5 && !model.spectra.empty() && model.spectra.amplitudes.size() != records;
+    const StoredSpectra& spectra = incomplete ? kNoSpectra : model.spectra;
     // Format 5: whether the signatures follow (else they are derived from the spectra).
     if (format_version >= 5) out.Put<uint8_t>(model.signatures_stored() ? 1 : 0);
     if (model.signatures_stored()) {
@@ -645,7 +656,10 @@ bool SpectrumSurelyValid(const std::complex<float>* coefficients, const float* m
 }  // namespace
 
 void ViewDatabase::CheckView(int model_index, size_t record) const {
-  CheckViewSignature(model_index, record);
+  // A compact model's signature is its spectrum (CheckViewSignature checks that).
+  if (models[static_cast<size_t>(model_index)].signatures_stored()) {
+    CheckViewSignature(model_index, record);
+  }
   CheckViewSpectrum(model_index, record);
 }
 
@@ -680,15 +694,16 @@ void ViewDatabase::CheckViewSpectrum(int model_index, size_t record) const {
   const size_t h = spectra.harmonics;
   const std::complex<float>* coefficients = spectra.coefficients.data() + record * h;
   // Format 5 stores no magnitudes (the matcher computes them from the coefficients).
-  const float* magnitudes = spectra.magnitudes.empty() ? nullptr : spectra.magnitudes.data() + record * h;
+  const float* magnitudes =
+      spectra.magnitudes.empty() ? nullptr : spectra.magnitudes.data() + record * h;
   if (SpectrumSurelyValid(coefficients, magnitudes, h)) return;
   bool valid = true;
   for (size_t k = 0; k < h; ++k) {
     valid = valid && std::isfinite(coefficients[k].real()) &&
             std::isfinite(coefficients[k].imag()) && std::abs(coefficients[k]) <= 1.0f;
     if (magnitudes != nullptr) {
-      valid = valid && std::isfinite(magnitudes[k]) && magnitudes[k] >= 0.0f &&
-              magnitudes[k] <= 1.0f;
+      valid =
+          valid && std::isfinite(magnitudes[k]) && magnitudes[k] >= 0.0f && magnitudes[k] <= 1.0f;
     }
   }
   if (!valid) {
@@ -774,8 +789,8 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
     ThrowError(source, ": corrupt database (", available - payload_size,
                " bytes more than its header announces)");
   }
-  // Format 4 read with ViewChecks::kOnFirstUse: the structure checksum below instead of the whole
-  // file's; the bulk is checked block by block when used (CheckBlock).
+  // Format 4 or 5 read with ViewChecks::kOnFirstUse: the structure checksum below instead of the
+  // whole file's; the bulk is checked block by block when used (CheckBlock).
   const bool lazy = version >= 4 && checks == ViewChecks::kOnFirstUse;
   if (!lazy) {
     uint64_t stored_checksum = 0;
@@ -1014,10 +1029,11 @@ ViewDatabase ViewDatabase::Deserialize(std::string_view bytes, const std::string
           for (size_t r = 0; r < num_records; ++r) {
             const float amplitude = spectra.amplitudes[r];
             // The relative spread of a signature (its radii have mean 1) is far below 1e3.
+            // Views without variance (and views not described) have none.
             if (!std::isfinite(amplitude) || amplitude < 0.0f || amplitude > 1e3f ||
-                ((spectra.kinds[r] & StoredSpectra::kPresent) == 0 && amplitude != 0.0f)) {
-              in.Fail("model '", model.name, "' view ", r % num_views, " of shell ",
-                      r / num_views, " has spectrum amplitude ", amplitude);
+                ((spectra.kinds[r] & StoredSpectra::kHasVariance) == 0 && amplitude != 0.0f)) {
+              in.Fail("model '", model.name, "' view ", r % num_views, " of shell ", r / num_views,
+                      " has spectrum amplitude ", amplitude);
             }
           }
         }

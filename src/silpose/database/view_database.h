@@ -136,8 +136,9 @@ struct ModelViews {
   StoredSpectra spectra;
   /// As read from a file of format 4 on: the XXH64 of each shell's block of signatures, stored
   /// coefficients and stored magnitudes (one per shell each; empty for what the file does not
-  /// store: signatures of a compact model, magnitudes from format 5 on). Checked by ViewDatabase::CheckBlock. Empty for databases made in memory (writing
-  /// computes them from the data).
+  /// store: signatures of a compact model, magnitudes from format 5 on). Checked by
+  /// ViewDatabase::CheckBlock. Empty for databases made in memory (writing computes them from the
+  /// data).
   std::vector<uint64_t> signature_hashes;
   std::vector<uint64_t> coefficient_hashes;
   std::vector<uint64_t> magnitude_hashes;
@@ -253,9 +254,9 @@ class ViewDatabase {
   /// over it. A device, FIFO, symbolic link or folder at `path` is refused, never replaced.
   /// Throws silpose::Error naming the file if it cannot be written.
   void Write(const std::filesystem::path& path) const;
-  /// Serialises to bytes (what Write writes): format kFormatVersion, or version 4 or 2 (for older
-  /// silpose builds; version 2 without the symmetries; both only with every model's signatures
-  /// stored). Throws silpose::Error for another version.
+  /// Serialises to bytes (what Write writes): format kFormatVersion, or version 4, 3 or 2 (for
+  /// older silpose builds; 3 and 2 without stored spectra, 2 without the symmetries; all only with
+  /// every model's signatures stored). Throws silpose::Error for another version.
   std::string Serialize(uint32_t format_version = kFormatVersion) const;
 
   /// Checks the values of record `record` (shell-major index) of `model`: CheckViewSignature and

@@ -316,6 +316,11 @@ TEST(ViewDatabaseFile, Format5StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
         EXPECT_EQ(c.spectra.magnitudes[i], std::abs(a.spectra.coefficients[i]));
       }
       EXPECT_TRUE(c.spectra.amplitudes.empty());
+      // A database read from a format-4 file is written in format 5 without its spectra (no
+      // amplitudes to derive signatures with; they are remade from the signatures when used).
+      const ViewDatabase v5 = ViewDatabase::Deserialize(v4.Serialize(), "v5.db");
+      EXPECT_TRUE(v5.models[m].spectra.empty());
+      EXPECT_EQ(v5.models[m].signatures, a.signatures);
     }
     // A copy shares the mapping and outlives the original; writing to it copies (never the file).
     ViewDatabase copy = loaded;
@@ -406,9 +411,8 @@ TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
     ViewBlock block;
     const char* name;
   };
-  for (const Case& c :
-       {Case{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
-        Case{coefficient + 3, 0, ViewBlock::kCoefficients, "stored spectra"}}) {
+  for (const Case& c : {Case{signature + 5, 1, ViewBlock::kSignatures, "signatures"},
+                        Case{coefficient + 3, 0, ViewBlock::kCoefficients, "stored spectra"}}) {
     // (Named copies: lambdas cannot capture structured bindings in every compiler.)
     const size_t at = c.at;
     const int shell = c.shell;

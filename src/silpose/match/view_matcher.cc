@@ -54,6 +54,7 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
   blocks_.resize(blocks);
   block_once_ = std::make_unique<std::once_flag[]>(blocks);
   magnitudes_once_ = std::make_unique<std::once_flag[]>(blocks);
+  coefficients_once_ = std::make_unique<std::once_flag[]>(blocks);
   signatures_once_ = std::make_unique<std::once_flag[]>(blocks);
   heads_.resize(blocks);
   magnitudes_.resize(blocks);
@@ -81,11 +82,13 @@ ViewSpectra::ViewSpectra(const ViewDatabase& database, const CorrelationOptions&
     if (stored_[static_cast<size_t>(m)] == 0 && !model.signatures_stored()) {
       // Its signatures are derived from the stored spectra, already smoothed: no other spectra
       // can be made from them.
-      ThrowError(database.source.empty() ? std::string("database") : database.source,
-                 ": model '", model.name, "' keeps only its views' spectra smoothed by ",
-                 stored.smoothing_deg, " degrees (a compact database), not the signatures a "
-                 "smoothing of ", options_.smoothing_deg,
-                 " degrees needs: rebuild it with 'silpose build-db --full-signatures'");
+      ThrowError(database.source.empty() ? std::string("database") : database.source, ": model '",
+                 model.name, "' keeps only its views' spectra (", stored.harmonics,
+                 " harmonics of signatures of ", signature_length_, " smoothed by ",
+                 stored.smoothing_deg,
+                 " degrees: a compact database), not the signatures a matcher with smoothing ",
+                 options_.smoothing_deg, " degrees and signatures of ", signature_length_,
+                 " needs: rebuild it with 'silpose build-db --full-signatures'");
     }
     for (int s = 0; s < num_shells_; ++s) {
       for (int v = 0; v < num_views_; ++v) {
@@ -117,7 +120,7 @@ void ViewSpectra::OpenBlock(int model, int shell) const {
       // Matching reads the stored spectra only; the signatures' block and values are checked by
       // whoever reads them (CheckSignatures): hashing 4 MB of signatures per model and shell was
       // most of a first frame's time.
-      database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
+      CheckCoefficients(model, shell);
       (void)Magnitudes(model, 0, shell);  // checks (or makes) the magnitudes once
     } else {
       CheckSignatures(model, shell);  // the spectra are made from them
@@ -136,7 +139,7 @@ void ViewSpectra::OpenMagnitudes(int model, int shell) const {
     return;
   }
   // Their coefficients' block is checked first: a corrupt one is reported, not bounded.
-  if (database_.views_unchecked) database_.CheckBlock(model, shell, ViewBlock::kCoefficients);
+  CheckCoefficients(model, shell);
   const size_t count = static_cast<size_t>(num_views_) * stored.harmonics;
   const std::complex<float>* coefficients =
       stored.coefficients.data() + static_cast<size_t>(shell) * count;
@@ -192,8 +195,8 @@ void ViewSpectra::Compute(int model, int view, int shell) const {
     SignatureSpectrum& spectrum = blocks_[Index(model, shell)][static_cast<size_t>(view)];
     spectrum.coefficients = SharedArray<std::complex<float>>::Refer(
         stored.coefficients.data() + record * stored.harmonics, stored.harmonics);
-    spectrum.magnitudes = SharedArray<float>::Refer(Magnitudes(model, view, shell).data(),
-                                                    stored.harmonics);
+    spectrum.magnitudes =
+        SharedArray<float>::Refer(Magnitudes(model, view, shell).data(), stored.harmonics);
     spectrum.has_variance = (stored.kinds[record] & StoredSpectra::kHasVariance) != 0;
     spectrum.amplitude = stored.amplitudes.empty() ? 0.0f : stored.amplitudes[record];
     num_computed_.fetch_add(1, std::memory_order_relaxed);

@@ -94,11 +94,11 @@ class ViewSpectra {
       const size_t block = Index(model, shell);
       std::call_once(magnitudes_once_[block], [&] { OpenMagnitudes(model, shell); });
       const StoredSpectra& stored = database_.models[static_cast<size_t>(model)].spectra;
-      const float* magnitudes = stored.magnitudes.empty()
-                                    ? magnitudes_[block].get()
-                                    : stored.magnitudes.data() + static_cast<size_t>(shell) *
-                                                                     static_cast<size_t>(num_views_) *
-                                                                     stored.harmonics;
+      const float* magnitudes =
+          stored.magnitudes.empty()
+              ? magnitudes_[block].get()
+              : stored.magnitudes.data() +
+                    static_cast<size_t>(shell) * static_cast<size_t>(num_views_) * stored.harmonics;
       return {magnitudes + static_cast<size_t>(view) * stored.harmonics, stored.harmonics};
     }
     return Get(model, view, shell).magnitudes.span();
@@ -129,7 +129,12 @@ class ViewSpectra {
   void CheckSignatures(int model, int shell) const {
     if (!database_.views_unchecked) return;
     std::call_once(signatures_once_[Index(model, shell)], [&] {
-      database_.CheckBlock(model, shell, ViewBlock::kSignatures);
+      // A compact model's signatures are derived from its coefficients: those are checked.
+      if (database_.models[static_cast<size_t>(model)].signatures_stored()) {
+        database_.CheckBlock(model, shell, ViewBlock::kSignatures);
+      } else {
+        CheckCoefficients(model, shell);
+      }
       const size_t first = static_cast<size_t>(shell) * static_cast<size_t>(num_views_);
       for (size_t r = first; r < first + static_cast<size_t>(num_views_); ++r) {
         database_.CheckViewSignature(model, r);
@@ -174,6 +179,13 @@ class ViewSpectra {
   /// A stored-spectra block's magnitudes: checked against their checksum (format 4, read with
   /// ViewChecks::kOnFirstUse), or computed from the coefficients (format 5, which stores none).
   void OpenMagnitudes(int model, int shell) const;
+  /// For a database read with ViewChecks::kOnFirstUse: the block's stored coefficients against
+  /// their checksum, once.
+  void CheckCoefficients(int model, int shell) const {
+    if (!database_.views_unchecked) return;
+    std::call_once(coefficients_once_[Index(model, shell)],
+                   [&] { database_.CheckBlock(model, shell, ViewBlock::kCoefficients); });
+  }
   void MakeBoundHeads(int model, int shell) const;
 
   const ViewDatabase& database_;
@@ -189,6 +201,8 @@ class ViewSpectra {
   /// magnitudes_; format 5), its signatures checked (ViewChecks::kOnFirstUse).
   std::unique_ptr<std::once_flag[]> magnitudes_once_;
   mutable std::vector<std::unique_ptr<float[]>> magnitudes_;
+  /// Per (model, shell): its stored coefficients checked (ViewChecks::kOnFirstUse).
+  std::unique_ptr<std::once_flag[]> coefficients_once_;
   std::unique_ptr<std::once_flag[]> signatures_once_;
   /// Per (model, shell): BoundHeads, made on first use.
   mutable std::vector<std::unique_ptr<float[]>> heads_;

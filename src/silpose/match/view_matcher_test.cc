@@ -678,7 +678,6 @@ TEST(ViewSpectra, WithStoredSpectraTheSignatureBlockIsCheckedByWhoReadsItNotByTh
   }
 }
 
-
 // A compact database keeps only the spectra; the signatures the pose reads are derived from them.
 // They must be the stored signatures smoothed as the spectra were: for these synthetic ones (a few
 // harmonics a_k cos + b_k sin) harmonic k is scaled by exp(-(k s)^2 / 2), s the smoothing in
@@ -698,7 +697,8 @@ TEST(CompactDatabase, DerivedSignaturesAreTheStoredOnesSmoothedAsTheSpectra) {
     EXPECT_TRUE(compact.models[static_cast<size_t>(m)].signatures.empty());
     EXPECT_EQ(compact.models[static_cast<size_t>(m)].signature_length(), 1000);
     for (int v = 0; v < 60; ++v) {
-      const std::vector<double>& terms = synthetic.terms[static_cast<size_t>(m)][static_cast<size_t>(v)];
+      const std::vector<double>& terms =
+          synthetic.terms[static_cast<size_t>(m)][static_cast<size_t>(v)];
       const std::span<const float> raw = full.models[static_cast<size_t>(m)].Signature(v, 0);
       const std::span<const float> derived = compact.models[static_cast<size_t>(m)].Signature(v, 0);
       ASSERT_EQ(derived.size(), 1000u);
@@ -714,13 +714,13 @@ TEST(CompactDatabase, DerivedSignaturesAreTheStoredOnesSmoothedAsTheSpectra) {
           r += weight * (terms[2 * k] * std::cos(f * t) + terms[2 * k + 1] * std::sin(f * t));
         }
         // MakeDatabase divides the radii by their mean (1 up to rounding for these terms).
-        largest_error = std::max(largest_error,
-                                 std::abs(r / (mean * raw.size() / 1000.0) -
-                                          derived[static_cast<size_t>(x)]));
+        largest_error =
+            std::max(largest_error, std::abs(r / mean - derived[static_cast<size_t>(x)]));
       }
       // Shell 1 holds the signatures reversed: derived the same way.
       const std::span<const float> raw1 = full.models[static_cast<size_t>(m)].Signature(v, 1);
-      const std::span<const float> derived1 = compact.models[static_cast<size_t>(m)].Signature(v, 1);
+      const std::span<const float> derived1 =
+          compact.models[static_cast<size_t>(m)].Signature(v, 1);
       if (full.models[static_cast<size_t>(m)].Record(v, 1).status == SignatureStatus::kOk) {
         EXPECT_NEAR(derived1[10], derived[989], 1e-4) << m << " " << v;
         EXPECT_NEAR(derived1[500], derived[499], 1e-4) << m << " " << v;
@@ -782,6 +782,67 @@ TEST(CompactDatabase, DerivedSignaturesAreTheStoredOnesSmoothedAsTheSpectra) {
   // Without stored spectra there is nothing to derive the signatures from.
   ViewDatabase bare = MakeDatabase(1, 20, 1000, 3).database;
   EXPECT_THROW(bare.DropSignatures(), Error);
+}
+
+// Without smoothing the spectrum keeps every harmonic up to M/2 (the Nyquist term at the end of
+// OpenCV's packed layout): the derived signatures are the stored ones.
+TEST(CompactDatabase, WithoutSmoothingTheDerivedSignaturesAreTheStoredOnes) {
+  SyntheticDatabase synthetic = MakeDatabase(2, 30, 64, 43);
+  GiveModelsAnExtent(&synthetic.database);
+  // A signature with a Nyquist component (alternating radii) besides the smooth ones.
+  std::span<float> radii = synthetic.database.models[1].MutableSignature(7);
+  for (size_t x = 0; x < radii.size(); ++x) radii[x] += (x % 2 == 0 ? 0.05f : -0.05f);
+  CorrelationOptions plain;
+  plain.smoothing_deg = 0.0;
+  StoreViewSpectra(&synthetic.database, plain, 1);
+  const ViewDatabase full = synthetic.database;
+  ViewDatabase compact = synthetic.database;
+  compact.DropSignatures();
+  ASSERT_EQ(compact.models[0].spectra.harmonics, 33u);
+  for (int m = 0; m < 2; ++m) {
+    for (int v = 0; v < 30; ++v) {
+      const std::span<const float> a = full.models[static_cast<size_t>(m)].Signature(v);
+      const std::span<const float> b = compact.models[static_cast<size_t>(m)].Signature(v);
+      for (size_t x = 0; x < a.size(); ++x) ASSERT_NEAR(a[x], b[x], 2e-5) << m << " " << v;
+    }
+  }
+  // A matcher with the same (no) smoothing serves the compact database from its spectra.
+  const ViewSpectra spectra(compact, plain);
+  EXPECT_TRUE(spectra.Stored(1));
+}
+
+// Several threads asking for the same derived signatures (a ViewSpectra shared by trackers) get
+// the same values, each derived once (ThreadSanitizer runs this test).
+TEST(CompactDatabase, DerivedSignaturesSharedBetweenThreads) {
+  SyntheticDatabase synthetic = MakeTwoShellDatabase(2, 40, 1000, 47);
+  GiveModelsAnExtent(&synthetic.database);
+  StoreViewSpectra(&synthetic.database, CorrelationOptions{}, 1);
+  ViewDatabase compact = synthetic.database;
+  compact.DropSignatures();
+  const ViewDatabase reference = compact;  // shares the cache: derived below, once
+  std::vector<std::vector<const float*>> seen(2);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) {
+    threads.emplace_back([&compact, &seen, t] {
+      for (int m = 0; m < 2; ++m)
+        for (int s = 0; s < 2; ++s)
+          for (int v = 0; v < 40; ++v)
+            seen[static_cast<size_t>(t)].push_back(
+                compact.models[static_cast<size_t>(m)].Signature(v, s).data());
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  EXPECT_EQ(seen[0], seen[1]);
+  EXPECT_EQ(reference.models[1].Signature(39, 1).data(), compact.models[1].Signature(39, 1).data());
+  // A copy whose spectra are replaced keeps deriving from the spectra its cache was made for.
+  ModelViews copy = compact.models[0];
+  const std::vector<float> before(copy.Signature(3, 0).begin(), copy.Signature(3, 0).end());
+  copy.spectra = StoredSpectra{};
+  const std::span<const float> after = copy.Signature(4, 0);
+  EXPECT_EQ(after.size(), 1000u);
+  EXPECT_TRUE(std::equal(before.begin(), before.end(), copy.Signature(3, 0).begin()));
+  const std::span<const float> expected = compact.models[0].Signature(4, 0);
+  EXPECT_TRUE(std::equal(expected.begin(), expected.end(), after.begin()));
 }
 
 }  // namespace
