@@ -289,9 +289,9 @@ size_t RecordIndex(const ModelViews& model, int view, int shell) {
 // file, with the model's): a copy of the model whose `spectra` are later replaced still derives
 // from the spectra its cache was made for.
 struct ModelViews::DerivedSignatures {
-  DerivedSignatures(const StoredSpectra& spectra, size_t records, size_t shells, size_t length)
-      : spectra(spectra),
-        length(length),
+  DerivedSignatures(const StoredSpectra& from, size_t records, size_t shells, size_t radii)
+      : spectra(from),
+        length(radii),
         records_per_shell(records / shells),
         blocks(shells),
         block_once(std::make_unique<std::once_flag[]>(shells)),
