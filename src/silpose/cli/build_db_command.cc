@@ -144,8 +144,9 @@ void AddBuildDbCommand(CLI::App& app) {
   auto arguments = std::make_shared<BuildDbArguments>();
   CLI::App* command = app.add_subcommand(
       "build-db",
-      "Render each mesh from near-uniform viewpoints on a sphere and store the silhouette "
-      "signatures, the views' neighbour graph and K-means bins in a database file.");
+      "Render each mesh from near-uniform viewpoints on a sphere, describe each silhouette by its "
+      "polar signature and store the signatures' spectra (the signatures themselves with "
+      "--full-signatures), the views' neighbour graph and K-means bins in a database file.");
   DatabaseParameters& parameters = arguments->options.parameters;
   command
       ->add_option("models", arguments->models,
