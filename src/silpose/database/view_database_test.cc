@@ -349,10 +349,9 @@ TEST(ViewDatabaseFile, Format5StoresSpectraAndMapsTheBulkInsteadOfCopyingIt) {
   EXPECT_EQ(survivor.spectra.coefficients, original.models[1].spectra.coefficients);
 }
 
-TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {
-  const std::string bytes = SmallDatabaseWithSpectra().Serialize();
-  ASSERT_EQ(LazyErrorOf(bytes), "");
-  // The whole file's checksum (the last 8 bytes) is only read by ViewChecks::kAtOpen.
+// Every single-byte change of `bytes` but the whole file's checksum (the last 8 bytes, only read
+// by ViewChecks::kAtOpen) is refused by LazyErrorOf with a message naming the file.
+void ExpectEveryByteCorruptionRefusedLazily(const std::string& bytes) {
   for (size_t i = 0; i + 8 < bytes.size(); ++i) {
     std::string corrupt = bytes;
     corrupt[i] = static_cast<char>(corrupt[i] ^ 0x10);
@@ -360,6 +359,12 @@ TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirst
     ASSERT_FALSE(message.empty()) << "byte " << i << " changed, file accepted";
     ASSERT_EQ(message.rfind("test.db: ", 0), 0u) << message;
   }
+}
+
+TEST(ViewDatabaseFile, ReadLazilyEverySingleByteCorruptionIsRefusedAtOpenOrFirstUse) {
+  const std::string bytes = SmallDatabaseWithSpectra().Serialize();
+  ASSERT_EQ(LazyErrorOf(bytes), "");
+  ExpectEveryByteCorruptionRefusedLazily(bytes);
 }
 
 // The same for a compact file (signatures not stored, derived from the spectra): its bulk is the
@@ -373,13 +378,7 @@ TEST(ViewDatabaseFile, CompactFileEverySingleByteCorruptionIsRefusedAtOpenOrFirs
   ASSERT_EQ(LazyErrorOf(bytes, &read), "");
   EXPECT_FALSE(read.models[1].signatures_stored());
   EXPECT_EQ(read.models[1].spectra.amplitudes, compact.models[1].spectra.amplitudes);
-  for (size_t i = 0; i + 8 < bytes.size(); ++i) {
-    std::string corrupt = bytes;
-    corrupt[i] = static_cast<char>(corrupt[i] ^ 0x10);
-    const std::string message = LazyErrorOf(corrupt);
-    ASSERT_FALSE(message.empty()) << "byte " << i << " changed, file accepted";
-    ASSERT_EQ(message.rfind("test.db: ", 0), 0u) << message;
-  }
+  ExpectEveryByteCorruptionRefusedLazily(bytes);
 }
 
 TEST(ViewDatabaseFile, ReadLazilyACorruptBlockIsNamedWhenFirstUsedAndOnlyThen) {
