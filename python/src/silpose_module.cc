@@ -855,6 +855,9 @@ void BindTrack(py::module_& m) {
                      "other's (0.8; 0 = off, --no-fit-arbitration).")
       .def_readwrite("fit_arbitration_margin_px", &TrackerOptions::fit_arbitration_margin_px,
                      "... and lower by more than this many pixels (0.25).")
+      .def_readwrite("fit_arbitration_score_gap", &TrackerOptions::fit_arbitration_score_gap,
+                     "... or, for a challenger of the same object that fits at least as well, "
+                     "if its score is higher by at least this much (0.3; 0 = off).")
       .def_readwrite("mirror_twin_check", &TrackerOptions::mirror_twin_check,
                      "For an object with a mirror plane, also fit the mirror twin of the matched "
                      "pose (the pose casting the same outline from far away) and report it when "

@@ -51,6 +51,10 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "fit_arbitration_margin_px must be finite and >= 0";
     return false;
   }
+  if (!(fit_arbitration_score_gap >= 0.0 && fit_arbitration_score_gap <= 2.0)) {
+    if (error != nullptr) *error = "fit_arbitration_score_gap must be in [0, 2] (0 = off)";
+    return false;
+  }
   if (!state.Check(&problem)) {
     if (error != nullptr) *error = "state: " + problem;
     return false;
@@ -201,14 +205,32 @@ bool Tracker::ArbitrateByFit(const FilterEstimate::Hypothesis& chosen,
     *iou = fit->iou;
     return std::isfinite(*rms);
   };
-  double chosen_rms = 0.0, chosen_iou = 0.0, challenger_rms = 0.0, challenger_iou = 0.0;
-  const bool challenger_fits = pose(challenger, &challenger_rms, &challenger_iou);
-  const bool chosen_fits = challenger_fits && pose(chosen, &chosen_rms, &chosen_iou);
+  HypothesisFit chosen_fit{chosen.object, static_cast<double>(chosen.score)};
+  HypothesisFit challenger_fit{challenger.object, static_cast<double>(challenger.score)};
+  const bool challenger_fits = pose(challenger, &challenger_fit.rms_px, &challenger_fit.iou);
+  const bool chosen_fits = challenger_fits && pose(chosen, &chosen_fit.rms_px, &chosen_fit.iou);
   arbitration_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  return chosen_fits && challenger_rms < options_.fit_arbitration_ratio * chosen_rms &&
-         chosen_rms - challenger_rms > options_.fit_arbitration_margin_px &&
-         challenger_iou >= chosen_iou;
+  return chosen_fits && FitArbitrationPrefersChallenger(chosen_fit, challenger_fit, options_);
+}
+
+bool FitArbitrationPrefersChallenger(const HypothesisFit& chosen, const HypothesisFit& challenger,
+                                     const TrackerOptions& options) {
+  if (!(options.fit_arbitration_ratio > 0.0)) return false;
+  if (!std::isfinite(chosen.rms_px) || !std::isfinite(challenger.rms_px) ||
+      !std::isfinite(chosen.iou) || !std::isfinite(challenger.iou)) {
+    return false;
+  }
+  if (challenger.iou < chosen.iou) return false;
+  // Clearly the better fit.
+  if (challenger.rms_px < options.fit_arbitration_ratio * chosen.rms_px &&
+      chosen.rms_px - challenger.rms_px > options.fit_arbitration_margin_px) {
+    return true;
+  }
+  // As good a fit of the same object, and far the better score.
+  return options.fit_arbitration_score_gap > 0.0 && challenger.object == chosen.object &&
+         challenger.score - chosen.score >= options.fit_arbitration_score_gap &&
+         challenger.rms_px <= chosen.rms_px;
 }
 
 namespace {

@@ -81,6 +81,14 @@ struct TrackerOptions {
   /// About the RMS outline distance of the right pose on a perfectly segmented frame (0.15-0.35
   /// px): a smaller difference is pixel noise, not evidence.
   double fit_arbitration_margin_px = 0.25;
+  /// A challenger of the same object whose signature scored at least this much higher than the
+  /// filter's choice is also reported when it fits the outline at least as well (RMS no higher,
+  /// IoU no lower). Both poses then explain the outline, and the frame's own evidence, the
+  /// signature, clearly prefers the challenger: the filter's mode has lost the object (a nearly
+  /// circular outline seen end-on, whose two ends the refinement can both fit). In [0, 2]; 0 =
+  /// off. Another object needs the fit rule above: on poor masks a look-alike may score far
+  /// higher.
+  double fit_arbitration_score_gap = 0.3;
   /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
   /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
   /// database's views cannot tell apart from far away) is refined against the frame's outline
@@ -143,6 +151,22 @@ struct TrackedFrame {
 /// `symmetry` (geometry/symmetry.h): nothing changes for an object without rotations or a result
 /// without view direction.
 void ToCanonicalForm(const ObjectSymmetry& symmetry, FrameResult* result);
+
+/// How well a posed hypothesis explains a frame, for the fit arbitration.
+struct HypothesisFit {
+  int object = -1;
+  /// Signature score of the hypothesis's database view (FilterEstimate::Hypothesis::score).
+  double score = -1.0;
+  /// Robust RMS outline distance, pixels, and IoU with the frame mask, of its refined pose.
+  double rms_px = 0.0;
+  double iou = 0.0;
+};
+
+/// The fit arbitration's rule (TrackerOptions::fit_arbitration_ratio, _margin_px, _score_gap;
+/// docs/tracking.md): true if `challenger` is to be reported instead of `chosen`. False when the
+/// arbitration is off (ratio 0) or either fit is not finite.
+bool FitArbitrationPrefersChallenger(const HypothesisFit& chosen, const HypothesisFit& challenger,
+                                     const TrackerOptions& options);
 
 class Tracker {
  public:

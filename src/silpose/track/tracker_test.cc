@@ -428,6 +428,8 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   // The arbitration alone (its rule also decides the mirror-twin check, tested below).
   TrackerOptions on;
   on.mirror_twin_check = false;
+  // The fit rule alone (the score-gap rule is tested by FitArbitrationRule below).
+  on.fit_arbitration_score_gap = 0.0;
   int frames_arbitrated = 0;
   for (const uint64_t seed : {1, 2, 3, 4}) {
     for (const char* name : {"cow", "hand"}) {
@@ -476,6 +478,70 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   }
   // Threshold-like masks make such frames common: the first sequence already has one.
   EXPECT_EQ(frames_arbitrated, 1);
+}
+
+TEST(Tracker, FitArbitrationRule) {
+  const TrackerOptions options;
+  // Figures of a frame of a spool seen nearly end-on at 3 radii: the filter's mode sat on the
+  // other end, whose refined pose fits the nearly circular outline almost as well, while its
+  // database view scored 0.17 against the challenger's 0.88.
+  const HypothesisFit chosen{.object = 3, .score = 0.171, .rms_px = 0.74, .iou = 0.994};
+  HypothesisFit challenger{.object = 3, .score = 0.876, .rms_px = 0.52, .iou = 0.996};
+  // Not clearly the better fit (0.22 px, within the margin) ...
+  ASSERT_LE(chosen.rms_px - challenger.rms_px, options.fit_arbitration_margin_px);
+  // ... but as good a fit and far the better score.
+  EXPECT_TRUE(FitArbitrationPrefersChallenger(chosen, challenger, options));
+  TrackerOptions no_gap = options;
+  no_gap.fit_arbitration_score_gap = 0.0;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, challenger, no_gap));
+  // A score gap below the option's, a worse fit, a lower IoU or another object: the mode stays.
+  HypothesisFit other = challenger;
+  other.score = chosen.score + 0.9 * options.fit_arbitration_score_gap;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, other, options));
+  other = challenger;
+  other.rms_px = chosen.rms_px + 0.01;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, other, options));
+  other = challenger;
+  other.iou = chosen.iou - 0.001;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, other, options));
+  other = challenger;
+  other.object = 4;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, other, options));
+
+  // The fit rule: below 0.8 times the RMS and lower by more than the margin, IoU no lower; any
+  // object, any score.
+  HypothesisFit better{.object = 4, .score = 0.0, .rms_px = 0.3, .iou = 0.995};
+  EXPECT_TRUE(FitArbitrationPrefersChallenger(chosen, better, options));
+  better.rms_px = 0.8 * chosen.rms_px;  // not below the ratio
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, better, options));
+  better.rms_px = 0.3;
+  better.iou = 0.99;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, better, options));
+  const HypothesisFit close_small{.object = 3, .score = 0.9, .rms_px = 0.2, .iou = 0.99};
+  const HypothesisFit closer_small{.object = 4, .score = 0.9, .rms_px = 0.1, .iou = 0.99};
+  // 0.5 times the RMS but only 0.1 px lower: pixel noise.
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(close_small, closer_small, options));
+
+  // Off (ratio 0: --no-fit-arbitration) and fits that are not numbers.
+  TrackerOptions off = options;
+  off.fit_arbitration_ratio = 0.0;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, challenger, off));
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, better, off));
+  other = challenger;
+  other.rms_px = std::nan("");
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, other, options));
+  other = chosen;
+  other.iou = std::nan("");
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(other, challenger, options));
+
+  // The option's range.
+  std::string error;
+  TrackerOptions invalid = options;
+  invalid.fit_arbitration_score_gap = -0.1;
+  EXPECT_FALSE(invalid.Check(&error));
+  EXPECT_NE(error.find("fit_arbitration_score_gap"), std::string::npos);
+  invalid.fit_arbitration_score_gap = std::nan("");
+  EXPECT_FALSE(invalid.Check());
 }
 
 // The cow (one mirror plane) on a 40-frame orbit at 12 radii, 3 degrees per frame, about 200 px
