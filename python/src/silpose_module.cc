@@ -854,7 +854,9 @@ void BindTrack(py::module_& m) {
                      "report it if its refined outline distance is below this ratio times the "
                      "other's (0.8; 0 = off, --no-fit-arbitration).")
       .def_readwrite("fit_arbitration_margin_px", &TrackerOptions::fit_arbitration_margin_px,
-                     "... and lower by more than this many pixels (0.25).")
+                     "... and lower by more than this many pixels (0.25) ...")
+      .def_readwrite("fit_arbitration_iou_gain", &TrackerOptions::fit_arbitration_iou_gain,
+                     "... or with an IoU higher by at least this much (0.01; 0 = off).")
       .def_readwrite("fit_arbitration_score_gap", &TrackerOptions::fit_arbitration_score_gap,
                      "... or, for a challenger of the same object that fits at least as well, "
                      "if its score is higher by at least this much (0.3; 0 = off).")

@@ -51,6 +51,10 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "fit_arbitration_margin_px must be finite and >= 0";
     return false;
   }
+  if (!(fit_arbitration_iou_gain >= 0.0 && fit_arbitration_iou_gain <= 1.0)) {
+    if (error != nullptr) *error = "fit_arbitration_iou_gain must be in [0, 1] (0 = off)";
+    return false;
+  }
   if (!(fit_arbitration_score_gap >= 0.0 && fit_arbitration_score_gap <= 2.0)) {
     if (error != nullptr) *error = "fit_arbitration_score_gap must be in [0, 2] (0 = off)";
     return false;
@@ -222,9 +226,11 @@ bool FitArbitrationPrefersChallenger(const HypothesisFit& chosen, const Hypothes
     return false;
   }
   if (challenger.iou < chosen.iou) return false;
-  // Clearly the better fit.
+  // Clearly the better fit: closer by the ratio, and by the margin or in the IoU.
   if (challenger.rms_px < options.fit_arbitration_ratio * chosen.rms_px &&
-      chosen.rms_px - challenger.rms_px > options.fit_arbitration_margin_px) {
+      (chosen.rms_px - challenger.rms_px > options.fit_arbitration_margin_px ||
+       (options.fit_arbitration_iou_gain > 0.0 &&
+        challenger.iou - chosen.iou >= options.fit_arbitration_iou_gain))) {
     return true;
   }
   // As good a fit of the same object, and far the better score.
@@ -257,6 +263,12 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   const Rigid3 reported = tracked->pose->camera_from_object;
   const Eigen::Vector3d centre(model.mesh.Centre());
   const std::vector<Rigid3>& transforms = SymmetryTransformsOf(result.object);
+  // The fit arbitration's rule; a twin's view scores the same as the reported one (the score gap
+  // does not apply).
+  const auto twin_better = [&](double a_rms, double a_iou, double b_rms, double b_iou) {
+    return FitArbitrationPrefersChallenger({result.object, 0.0, a_rms, a_iou},
+                                           {result.object, 0.0, b_rms, b_iou}, options_);
+  };
   std::optional<ContourRefinementResult> best;
   double best_rms = 0.0;
   size_t best_mirror = 0;
@@ -289,8 +301,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     if (twin.points_used < 6) continue;
     if (!Improves(twin)) twin.camera_from_object = start;
     const double rms = std::min(twin.final_rms_px, twin.initial_rms_px);
-    if (std::isfinite(rms) && rms < options_.fit_arbitration_ratio * own_rms &&
-        own_rms - rms > options_.fit_arbitration_margin_px && twin.iou >= own.iou &&
+    if (std::isfinite(rms) && twin_better(own_rms, own.iou, rms, twin.iou) &&
         (!best || rms < best_rms)) {
       best = std::move(twin);
       best_rms = rms;
@@ -309,8 +320,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   if (!Improves(back)) back.camera_from_object = back_start;
   const double back_rms = std::min(back.final_rms_px, back.initial_rms_px);
   if (back.points_used >= 6 && std::isfinite(back_rms) &&
-      !(best_rms < options_.fit_arbitration_ratio * back_rms &&
-        back_rms - best_rms > options_.fit_arbitration_margin_px && best->iou >= back.iou)) {
+      !twin_better(back_rms, back.iou, best_rms, best->iou)) {
     // Not the twin (the reported pose is kept: a refinement from elsewhere may find another
     // local minimum that fits a little better and is wrong).
     return false;

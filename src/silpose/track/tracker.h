@@ -81,6 +81,11 @@ struct TrackerOptions {
   /// About the RMS outline distance of the right pose on a perfectly segmented frame (0.15-0.35
   /// px): a smaller difference is pixel noise, not evidence.
   double fit_arbitration_margin_px = 0.25;
+  /// ... or, below the ratio, whose IoU is higher by at least this much. The margin is in pixels,
+  /// and a small silhouette (a far object) has small outline distances: at 15 radii, 35 px
+  /// across, the back of a flat object fitted its outline in 0.45 px against its front's 0.21 px,
+  /// within the margin, but covered it with an IoU of 0.971 against 0.999. In [0, 1]; 0 = off.
+  double fit_arbitration_iou_gain = 0.01;
   /// A challenger of the same object whose signature scored at least this much higher than the
   /// filter's choice is also reported when it fits the outline at least as well (RMS no higher,
   /// IoU no lower). Both poses then explain the outline, and the frame's own evidence, the
@@ -162,7 +167,8 @@ struct HypothesisFit {
   double iou = 0.0;
 };
 
-/// The fit arbitration's rule (TrackerOptions::fit_arbitration_ratio, _margin_px, _score_gap;
+/// The fit arbitration's rule (TrackerOptions::fit_arbitration_ratio, _margin_px, _iou_gain,
+/// _score_gap;
 /// docs/tracking.md): true if `challenger` is to be reported instead of `chosen`. False when the
 /// arbitration is off (ratio 0) or either fit is not finite.
 bool FitArbitrationPrefersChallenger(const HypothesisFit& chosen, const HypothesisFit& challenger,

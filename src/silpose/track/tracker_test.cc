@@ -428,7 +428,9 @@ TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) 
   // The arbitration alone (its rule also decides the mirror-twin check, tested below).
   TrackerOptions on;
   on.mirror_twin_check = false;
-  // The fit rule alone (the score-gap rule is tested by FitArbitrationRule below).
+  // The fit rule with the margin alone (the IoU and score-gap rules are tested by
+  // FitArbitrationRule below).
+  on.fit_arbitration_iou_gain = 0.0;
   on.fit_arbitration_score_gap = 0.0;
   int frames_arbitrated = 0;
   for (const uint64_t seed : {1, 2, 3, 4}) {
@@ -518,9 +520,25 @@ TEST(Tracker, FitArbitrationRule) {
   better.iou = 0.99;
   EXPECT_FALSE(FitArbitrationPrefersChallenger(chosen, better, options));
   const HypothesisFit close_small{.object = 3, .score = 0.9, .rms_px = 0.2, .iou = 0.99};
-  const HypothesisFit closer_small{.object = 4, .score = 0.9, .rms_px = 0.1, .iou = 0.99};
-  // 0.5 times the RMS but only 0.1 px lower: pixel noise.
+  HypothesisFit closer_small{.object = 4, .score = 0.9, .rms_px = 0.1, .iou = 0.99};
+  // 0.5 times the RMS but only 0.1 px lower, and the same IoU: pixel noise.
   EXPECT_FALSE(FitArbitrationPrefersChallenger(close_small, closer_small, options));
+  // The IoU rule: the back of a flat object at 15 radii fitted in 0.45 px against its front's
+  // 0.21 px (within the margin), with an IoU of 0.971 against 0.999.
+  const HypothesisFit back{.object = 9, .score = 0.996, .rms_px = 0.45, .iou = 0.971};
+  HypothesisFit front{.object = 9, .score = 0.997, .rms_px = 0.21, .iou = 0.999};
+  EXPECT_TRUE(FitArbitrationPrefersChallenger(back, front, options));
+  TrackerOptions no_iou = options;
+  no_iou.fit_arbitration_iou_gain = 0.0;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(back, front, no_iou));
+  // ... the IoU gain below the option's, or the RMS not below the ratio: no.
+  front.iou = back.iou + 0.9 * options.fit_arbitration_iou_gain;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(back, front, options));
+  front.iou = 0.999;
+  front.rms_px = 0.8 * back.rms_px;
+  EXPECT_FALSE(FitArbitrationPrefersChallenger(back, front, options));
+  closer_small.iou = close_small.iou + options.fit_arbitration_iou_gain;
+  EXPECT_TRUE(FitArbitrationPrefersChallenger(close_small, closer_small, options));
 
   // Off (ratio 0: --no-fit-arbitration) and fits that are not numbers.
   TrackerOptions off = options;
@@ -542,6 +560,10 @@ TEST(Tracker, FitArbitrationRule) {
   EXPECT_NE(error.find("fit_arbitration_score_gap"), std::string::npos);
   invalid.fit_arbitration_score_gap = std::nan("");
   EXPECT_FALSE(invalid.Check());
+  invalid = options;
+  invalid.fit_arbitration_iou_gain = 1.5;
+  EXPECT_FALSE(invalid.Check(&error));
+  EXPECT_NE(error.find("fit_arbitration_iou_gain"), std::string::npos);
 }
 
 // The cow (one mirror plane) on a 40-frame orbit at 12 radii, 3 degrees per frame, about 200 px
@@ -622,8 +644,11 @@ TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
           const auto fit = [](const ContourRefinementResult& r) {
             return std::min(r.final_rms_px, r.initial_rms_px);
           };
+          EXPECT_TRUE(
+              FitArbitrationPrefersChallenger({0, 0.0, fit(*b.refinement), b.refinement->iou},
+                                              {0, 0.0, fit(*a.refinement), a.refinement->iou}, on))
+              << f;
           EXPECT_LT(fit(*a.refinement), on.fit_arbitration_ratio * fit(*b.refinement)) << f;
-          EXPECT_GT(fit(*b.refinement) - fit(*a.refinement), on.fit_arbitration_margin_px) << f;
           EXPECT_GE(a.refinement->iou, b.refinement->iou) << f;
         } else {
           flipped = true;
