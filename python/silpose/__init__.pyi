@@ -140,6 +140,8 @@ class TrackerOptions:
     refine: bool
     fit_arbitration_ratio: float
     fit_arbitration_margin_px: float
+    fit_arbitration_iou_gain: float
+    fit_arbitration_score_gap: float
     mirror_twin_check: bool
     canonical_poses: bool
     seed: int

@@ -121,6 +121,14 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
     silpose.TrackerOptions(fit_arbitration_ratio=0.0).check()
     with pytest.raises(silpose.Error, match="fit_arbitration_ratio"):
         silpose.TrackerOptions(fit_arbitration_ratio=1.5).check()
+    # Its IoU and score-gap alternatives: on by default, 0 = off, out of range refused.
+    assert silpose.TrackerOptions().fit_arbitration_iou_gain == pytest.approx(0.01)
+    assert silpose.TrackerOptions().fit_arbitration_score_gap == pytest.approx(0.3)
+    silpose.TrackerOptions(fit_arbitration_iou_gain=0.0, fit_arbitration_score_gap=0.0).check()
+    with pytest.raises(silpose.Error, match="fit_arbitration_iou_gain"):
+        silpose.TrackerOptions(fit_arbitration_iou_gain=-0.5).check()
+    with pytest.raises(silpose.Error, match="fit_arbitration_score_gap"):
+        silpose.TrackerOptions(fit_arbitration_score_gap=3.0).check()
     # The mirror-twin check: on by default, and can be switched off.
     assert silpose.TrackerOptions().mirror_twin_check is True
     assert silpose.TrackerOptions(mirror_twin_check=False).mirror_twin_check is False
