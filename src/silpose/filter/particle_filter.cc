@@ -162,8 +162,10 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
         break;
       }
     }
+    // One more row: the square root of the energy beyond the ranked harmonics (BestViewsOfObject).
     ranking_table_.assign(static_cast<size_t>(num_objects_),
-                          Eigen::MatrixXf::Zero(ranking_harmonics_, num_views_));
+                          Eigen::MatrixXf::Zero(ranking_harmonics_ + 1, num_views_));
+    const size_t half = static_cast<size_t>(spectra.signature_length() / 2 + 1);
     for (int m = 0; m < num_objects_; ++m) {
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
@@ -174,6 +176,8 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
           valid = valid && value >= 0.0f && value <= 1.0f;  // false for NaN too
           ranking_table_[static_cast<size_t>(m)](k, v) = value;
         }
+        ranking_table_[static_cast<size_t>(m)](ranking_harmonics_, v) =
+            TailEnergyRoot(magnitudes, static_cast<size_t>(ranking_harmonics_), half);
         // Stored magnitudes are read in place unchecked: Get checks the view's values (and throws
         // for a corrupt file).
         if (!valid) (void)spectra.Get(m, v);
@@ -277,9 +281,8 @@ void ParticleFilter::ReflectMode(int object, int view, const Eigen::Matrix3d& mo
   const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
   const Eigen::Vector3d centre = sphere_.directions[static_cast<size_t>(view)];
   for (Particle& p : particles_) {
-    if (p.object != object ||
-        same.AngleDeg(sphere_.directions[static_cast<size_t>(p.view)], centre) >
-            options_.mode_radius_deg) {
+    if (p.object != object || same.AngleDeg(sphere_.directions[static_cast<size_t>(p.view)],
+                                            centre) > options_.mode_radius_deg) {
       continue;
     }
     const Eigen::Vector3d& d = sphere_.directions[static_cast<size_t>(p.view)];
@@ -878,28 +881,48 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
     const SignatureSpectrum& frame, int object, int count) {
   std::vector<CandidateView> best;
   if (!frame.has_variance || ranking_harmonics_ == 0) return best;
-  // Rank the object's views by the low-harmonic part of the spectral bound: the frame's weighted
-  // magnitudes (as CircularCorrelator::Transform(..., weighted = true) makes them) against every
-  // view's, one matrix-vector product over a contiguous table.
+  // Rank the object's views by two bounds over the first harmonics, each a matrix-vector product
+  // over a contiguous table: the low-harmonic part of the spectral bound (the frame's weighted
+  // magnitudes, as CircularCorrelator::Transform(..., weighted = true) makes them, against every
+  // view's), and the same plus the product of the energies beyond (TailEnergyRoot). The first
+  // favours views with much energy in the first harmonics; the second is a bound over all
+  // harmonics and finds the views of a nearly round outline. The guided_candidates best of each
+  // ranking are correlated exactly.
   const size_t half = frame.coefficients.size();
-  Eigen::VectorXf frame_magnitudes(ranking_harmonics_);
-  for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
-    const float weight = (k == 0 || static_cast<size_t>(k) == half - 1) ? 1.0f : 2.0f;
-    frame_magnitudes[k] = weight * std::abs(frame.coefficients[static_cast<size_t>(k)]);
+  const auto harmonics = static_cast<size_t>(ranking_harmonics_);
+  Eigen::VectorXf frame_magnitudes(ranking_harmonics_ + 1);
+  frame_magnitudes_.resize(harmonics);
+  for (size_t k = 0; k < harmonics; ++k) {
+    frame_magnitudes_[k] = std::abs(frame.coefficients[k]);
+    const float weight = (k == 0 || k == half - 1) ? 1.0f : 2.0f;
+    frame_magnitudes[static_cast<Eigen::Index>(k)] = weight * frame_magnitudes_[k];
   }
+  // The product gives the first bound (the tail row times 0); the tails are added below.
+  frame_magnitudes[ranking_harmonics_] = 0.0f;
+  const float frame_tail = TailEnergyRoot(frame_magnitudes_, harmonics, half);
+  const Eigen::MatrixXf& table = ranking_table_[static_cast<size_t>(object)];
   ranking_.resize(num_views_);
-  ranking_.noalias() = ranking_table_[static_cast<size_t>(object)].transpose() * frame_magnitudes;
-  bounds_.clear();
-  for (int v = 0; v < num_views_; ++v) {
-    if (spectra_.Usable(object, v)) bounds_.push_back({ranking_[v], v});
+  ranking_.noalias() = table.transpose() * frame_magnitudes;
+  const auto wanted = static_cast<size_t>(std::max(options_.guided_candidates, count));
+  candidate_views_.clear();
+  for (const bool with_tail : {false, true}) {
+    bounds_.clear();
+    for (int v = 0; v < num_views_; ++v) {
+      if (!spectra_.Usable(object, v)) continue;
+      bounds_.push_back(
+          {with_tail ? ranking_[v] + frame_tail * table(ranking_harmonics_, v) : ranking_[v], v});
+    }
+    const size_t ranked = std::min(bounds_.size(), wanted);
+    std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(ranked),
+                      bounds_.end(), std::greater<>());
+    for (size_t c = 0; c < ranked; ++c) {
+      if (std::find(candidate_views_.begin(), candidate_views_.end(), bounds_[c].second) ==
+          candidate_views_.end()) {
+        candidate_views_.push_back(bounds_[c].second);
+      }
+    }
   }
-  // Correlate the guided_candidates best ranked views exactly (each in its shell).
-  const auto candidates =
-      std::min(bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
-  std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(candidates),
-                    bounds_.end(), std::greater<>());
-  for (size_t c = 0; c < candidates; ++c) {
-    const int view = bounds_[c].second;
+  for (const int view : candidate_views_) {
     const int shell = ShellOf(object, view);
     if (!spectra_.Usable(object, view, shell)) continue;
     const CorrelationPeak peak = correlator_.Peak(frame, spectra_.Get(object, view, shell));

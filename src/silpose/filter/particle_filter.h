@@ -140,12 +140,15 @@
 //     object that was dropped, or appears later, is searched for over its whole sphere. With
 //     guided_reseeding (default; not in the paper), one particle of every object moves to the
 //     object's best view for this frame: its views ranked by the low-harmonic part (32
-//     harmonics) of the spectral bound of match/circular_correlator.h, the guided_candidates
-//     best ranked correlated exactly. This is a data-driven proposal: it costs about 0.45 ms per
-//     frame for 20 objects x 1000 views, and it is what makes re-identification after an object
-//     switch and escape from a look-alike mode quick (object switch on the sample models, view
-//     within 0.25: mean 4.1 frames, at most 16, against 11.8 and 39 without). The filter still
-//     decides: the guided particle must keep winning over the following frames to take over.
+//     harmonics) of the spectral bound of match/circular_correlator.h, and again by that part
+//     plus the product of the energies beyond it (TailEnergyRoot: a bound over all harmonics,
+//     which finds the views of a nearly round outline, whose first harmonics carry little), the
+//     guided_candidates best of each ranking correlated exactly. This is a data-driven proposal: it
+//     costs about 0.45 ms per frame for 20 objects x 1000 views, and it is what makes
+//     re-identification after an object switch and escape from a look-alike mode quick (object
+//     switch on the sample models, view within 0.25: mean 4.1 frames, at most 16, against 11.8 and
+//     39 without). The filter still decides: the guided particle must keep winning over the
+//     following frames to take over.
 //
 // Pose history, bounded memory. Each particle's history is a chain of immutable
 // HistoryNode {frame, object, view, roll, score} -> parent, held by shared pointers. Resampling
@@ -310,7 +313,8 @@ struct ParticleFilterOptions {
   /// start views all miss loses the first frames to a look-alike (eval tracking, 5 asymmetric
   /// models: 25 of 9000 frames, all in the first 12 frames of a run, went to a wrong object).
   bool guided_start = true;
-  /// Views correlated exactly per object for guided reseeding, the best ranked. >= 1.
+  /// Views correlated exactly per object for guided reseeding and the proposal, the best ranked
+  /// by each of the two rankings (the same view once). >= 1.
   int guided_candidates = 4;
 
   /// KLD-sampling (paper 4.3): adapt the particle count of each object at every resampling.
@@ -644,13 +648,15 @@ class ParticleFilter {
   std::vector<double> group_starts_;
   std::vector<int32_t> group_members_;
   std::vector<CorrelationPeak> group_peaks_;
-  /// Harmonics used to rank views for guided reseeding, and per object their magnitudes
-  /// (harmonics x views).
+  /// Harmonics used to rank views for guided reseeding, and per object their magnitudes and, in
+  /// one more row, the root of each view's energy beyond them ((harmonics + 1) x views).
   static constexpr Eigen::Index kRankingHarmonics = 32;
   Eigen::Index ranking_harmonics_ = 0;
   std::vector<Eigen::MatrixXf> ranking_table_;
   Eigen::VectorXf ranking_;
   std::vector<std::pair<float, int>> bounds_;
+  std::vector<float> frame_magnitudes_;
+  std::vector<int> candidate_views_;
 };
 
 /// 1 / sum(w_i^2) of weights that sum to 1 (0 for no weights).

@@ -503,4 +503,14 @@ float CorrelationUpperBound(std::span<const float> weighted_magnitudes,
       .dot(Eigen::Map<const Eigen::VectorXf>(magnitudes.data(), size));
 }
 
+float TailEnergyRoot(std::span<const float> magnitudes, size_t harmonics, size_t num_coefficients) {
+  SILPOSE_ASSERT(harmonics <= magnitudes.size());
+  double energy = 0.0;
+  for (size_t k = 0; k < harmonics; ++k) {
+    const double weight = k == 0 || k + 1 == num_coefficients ? 1.0 : 2.0;
+    energy += weight * static_cast<double>(magnitudes[k]) * static_cast<double>(magnitudes[k]);
+  }
+  return static_cast<float>(std::sqrt(std::max(0.0, 1.0 - energy)));
+}
+
 }  // namespace silpose

@@ -146,4 +146,15 @@ class CircularCorrelator {
 float CorrelationUpperBound(std::span<const float> weighted_magnitudes,
                             std::span<const float> magnitudes);
 
+/// Square root of a spectrum's energy beyond its first `harmonics` harmonics, from its
+/// (unweighted) magnitudes: sqrt(max(0, 1 - sum_{k < harmonics} w_k m_k^2)), w_k = 1 for k = 0
+/// and k = M/2 (`num_coefficients` = M/2 + 1), else 2; a spectrum of CircularCorrelator has unit
+/// energy. For two spectra Q and D,
+///   sum_{k < K} w_k |Q_k| |D_k| + TailEnergyRoot(Q, K) TailEnergyRoot(D, K)
+/// is an upper bound of max_n e(n) over all harmonics (Cauchy-Schwarz on those from K on), 1 when
+/// the magnitudes are equal. The first term alone favours spectra with much energy in the first
+/// harmonics; the second credits a match of the energy beyond them (a nearly round outline has
+/// little in the first ones). `harmonics` <= magnitudes.size().
+float TailEnergyRoot(std::span<const float> magnitudes, size_t harmonics, size_t num_coefficients);
+
 }  // namespace silpose

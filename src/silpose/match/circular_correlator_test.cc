@@ -143,6 +143,61 @@ TEST_P(CorrelatorTest, UpperBoundIsNeverBelowThePeak) {
   EXPECT_NEAR(CorrelationUpperBound(q.magnitudes, d.magnitudes), 1.0f, 1e-4f);
 }
 
+// A nearly round outline: a circle with a ripple of `ripple` bumps, a slight ellipse, shifted.
+std::vector<float> RippledCircle(int length, int ripple, double ellipse, double shift_bins) {
+  std::vector<float> radii(static_cast<size_t>(length));
+  for (int x = 0; x < length; ++x) {
+    const double t = 2.0 * std::numbers::pi * (x + shift_bins) / length;
+    radii[static_cast<size_t>(x)] =
+        static_cast<float>(1.0 + ellipse * std::cos(2.0 * t) + 0.05 * std::cos(ripple * t));
+  }
+  return radii;
+}
+
+TEST_P(CorrelatorTest, TailEnergyBoundIsNeverBelowThePeakAndFindsNearlyRoundOutlines) {
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const size_t half = length / 2 + 1;
+  // Unit energy: nothing is left beyond the last harmonic.
+  const SignatureSpectrum own = correlator.Transform(RippledCircle(length, 40, 0.01, 0.0));
+  EXPECT_NEAR(TailEnergyRoot(own.magnitudes, own.magnitudes.size(), half), 0.0f, 2e-3f);
+  EXPECT_NEAR(TailEnergyRoot(own.magnitudes, 0, half), 1.0f, 1e-6f);
+  // The first K harmonics' bound plus the tails' product is never below the peak.
+  const auto bound = [&](const SignatureSpectrum& q_weighted, const SignatureSpectrum& d,
+                         size_t k) {
+    float sum = 0.0f;
+    for (size_t i = 0; i < k; ++i) sum += q_weighted.magnitudes[i] * d.magnitudes[i];
+    std::vector<float> q(k);
+    for (size_t i = 0; i < k; ++i) q[i] = std::abs(q_weighted.coefficients[i]);
+    return sum + TailEnergyRoot(q, k, half) * TailEnergyRoot(d.magnitudes, k, half);
+  };
+  for (uint32_t seed = 0; seed < 30; ++seed) {
+    std::vector<float> a = SmoothSignature(seed, length);
+    const std::vector<float> ripple = RippledCircle(length, 30 + static_cast<int>(seed), 0.0, seed);
+    for (size_t i = 0; i < a.size(); ++i) a[i] += 0.5f * (ripple[i] - 1.0f);
+    const SignatureSpectrum q = correlator.Transform(a, true);
+    const SignatureSpectrum d = correlator.Transform(SmoothSignature(seed + 100, length));
+    const SignatureSpectrum r = correlator.Transform(RippledCircle(length, 45, 0.02, 3.0 * seed));
+    for (const size_t k : {size_t{4}, size_t{8}, size_t{32}}) {
+      EXPECT_GE(bound(q, d, k) + 1e-5f, correlator.Peak(q, d).score) << seed << " " << k;
+      EXPECT_GE(bound(q, r, k) + 1e-5f, correlator.Peak(q, r).score) << seed << " " << k;
+    }
+  }
+  // A nearly round frame: its shifted copy reaches the bound, 1. On the first 32 harmonics alone
+  // an elongated outline outranks it; with the tails it does not.
+  const SignatureSpectrum frame = correlator.Transform(RippledCircle(length, 40, 0.01, 17.0), true);
+  const SignatureSpectrum same = correlator.Transform(RippledCircle(length, 40, 0.01, 0.0));
+  const SignatureSpectrum elongated = correlator.Transform(RippledCircle(length, 40, 0.3, 0.0));
+  EXPECT_NEAR(correlator.Peak(frame, same).score, 1.0f, 1e-4f);
+  EXPECT_NEAR(bound(frame, same, 32), 1.0f, 1e-3f);
+  EXPECT_LT(bound(frame, elongated, 32), 0.9f);
+  const auto truncated = [&](const SignatureSpectrum& d) {
+    return CorrelationUpperBound(std::span<const float>(frame.magnitudes).first(32),
+                                 std::span<const float>(d.magnitudes).first(32));
+  };
+  EXPECT_GT(truncated(elongated), truncated(same));
+}
+
 TEST_P(CorrelatorTest, ScoreAtShiftAgreesWithTheCorrelationAtIntegerShifts) {
   const int length = 200;
   CircularCorrelator correlator(length, GetParam());
