@@ -903,22 +903,25 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   const Eigen::MatrixXf& table = ranking_table_[static_cast<size_t>(object)];
   ranking_.resize(num_views_);
   ranking_.noalias() = table.transpose() * frame_magnitudes;
-  const auto wanted = static_cast<size_t>(std::max(options_.guided_candidates, count));
+  // Both rankings' values in one pass over the usable views.
+  bounds_.clear();
+  tail_bounds_.clear();
+  for (int v = 0; v < num_views_; ++v) {
+    if (!spectra_.Usable(object, v)) continue;
+    bounds_.push_back({ranking_[v], v});
+    tail_bounds_.push_back({ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
+  }
+  const size_t ranked =
+      std::min(bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
   candidate_views_.clear();
-  for (const bool with_tail : {false, true}) {
-    bounds_.clear();
-    for (int v = 0; v < num_views_; ++v) {
-      if (!spectra_.Usable(object, v)) continue;
-      bounds_.push_back(
-          {with_tail ? ranking_[v] + frame_tail * table(ranking_harmonics_, v) : ranking_[v], v});
-    }
-    const size_t ranked = std::min(bounds_.size(), wanted);
-    std::partial_sort(bounds_.begin(), bounds_.begin() + static_cast<std::ptrdiff_t>(ranked),
-                      bounds_.end(), std::greater<>());
+  for (std::vector<std::pair<float, int>>* ranking : {&bounds_, &tail_bounds_}) {
+    std::partial_sort(ranking->begin(), ranking->begin() + static_cast<std::ptrdiff_t>(ranked),
+                      ranking->end(), std::greater<>());
     for (size_t c = 0; c < ranked; ++c) {
-      if (std::find(candidate_views_.begin(), candidate_views_.end(), bounds_[c].second) ==
+      const int view = (*ranking)[c].second;
+      if (std::find(candidate_views_.begin(), candidate_views_.end(), view) ==
           candidate_views_.end()) {
-        candidate_views_.push_back(bounds_[c].second);
+        candidate_views_.push_back(view);
       }
     }
   }

@@ -655,6 +655,7 @@ class ParticleFilter {
   std::vector<Eigen::MatrixXf> ranking_table_;
   Eigen::VectorXf ranking_;
   std::vector<std::pair<float, int>> bounds_;
+  std::vector<std::pair<float, int>> tail_bounds_;
   std::vector<float> frame_magnitudes_;
   std::vector<int> candidate_views_;
 };
