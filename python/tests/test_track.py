@@ -129,6 +129,9 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
         silpose.TrackerOptions(fit_arbitration_iou_gain=-0.5).check()
     with pytest.raises(silpose.Error, match="fit_arbitration_score_gap"):
         silpose.TrackerOptions(fit_arbitration_score_gap=3.0).check()
+    # The motion start: on by default, and can be switched off.
+    assert silpose.TrackerOptions().refine_from_motion is True
+    assert silpose.TrackerOptions(refine_from_motion=False).refine_from_motion is False
     # The mirror-twin check: on by default, and can be switched off.
     assert silpose.TrackerOptions().mirror_twin_check is True
     assert silpose.TrackerOptions(mirror_twin_check=False).mirror_twin_check is False

@@ -731,6 +731,9 @@ void AddTrackCommand(CLI::App& app) {
       "Let the scores alone decide when the frame's best-scoring hypothesis lies outside the "
       "filter's mode (by default both are refined and the better fit is reported; "
       "docs/tracking.md); also turns off the mirror-twin check, which uses the same rule");
+  command->add_flag("!--no-motion-start", arguments->tracker.refine_from_motion,
+                    "Refine every frame's pose from its database view alone, not also from the "
+                    "previous frame's refined pose carried on by the motion (docs/tracking.md)");
   command->add_flag("!--no-twin-check", arguments->tracker.mirror_twin_check,
                     "Report the matched pose of an object with a mirror plane without also "
                     "fitting its mirror twin, the pose that casts the same outline from far away "

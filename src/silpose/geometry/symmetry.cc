@@ -52,8 +52,8 @@ Rigid3 MirrorTwinPose(const Rigid3& camera_from_object, const MirrorSymmetry& mi
   const Eigen::Matrix3d h = Eigen::Matrix3d::Identity() - 2.0 * u * u.transpose();
   Rigid3 twin;
   twin.rotation = h * camera_from_object.rotation * a;
-  twin.translation = h * (camera_from_object.rotation * b + camera_from_object.translation) +
-                     2.0 * depth * u;
+  twin.translation =
+      h * (camera_from_object.rotation * b + camera_from_object.translation) + 2.0 * depth * u;
   return twin;
 }
 
@@ -241,6 +241,33 @@ double ViewEquivalence::AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d
     best = std::min(best, angle);
   }
   return best * 180.0 / std::numbers::pi;
+}
+
+Eigen::Matrix3d NearestEquivalentRotation(const Eigen::Matrix3d& rotation,
+                                          const Eigen::Matrix3d& reference,
+                                          const ObjectSymmetry& symmetry) {
+  if (!symmetry.HasRotations()) return rotation;
+  Eigen::Matrix3d best = rotation;
+  double best_angle = std::numeric_limits<double>::infinity();
+  const auto consider = [&](const Eigen::Matrix3d& candidate) {
+    Eigen::Matrix3d nearest = candidate;
+    for (const ContinuousSymmetry& c : symmetry.continuous) {
+      // The turn about the axis nearest the difference: the twist of its quaternion.
+      const Eigen::Vector3d axis = c.axis.normalized();
+      const Eigen::Quaterniond difference(Eigen::Matrix3d(nearest.transpose() * reference));
+      const double twist = 2.0 * std::atan2(difference.vec().dot(axis), difference.w());
+      nearest = nearest * Eigen::AngleAxisd(twist, axis).toRotationMatrix();
+    }
+    const double angle =
+        Eigen::AngleAxisd(Eigen::Matrix3d(nearest.transpose() * reference)).angle();
+    if (angle < best_angle) {
+      best_angle = angle;
+      best = nearest;
+    }
+  };
+  consider(rotation);
+  for (const Rigid3& s : symmetry.discrete) consider(rotation * s.rotation);
+  return best;
 }
 
 Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object,

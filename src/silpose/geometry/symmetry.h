@@ -113,6 +113,16 @@ double ViewErrorModuloSymmetry(const Eigen::Vector3d& estimated, const Eigen::Ve
 /// of P is P * S. The identity for an object without rotations.
 Rigid3 CanonicalSymmetry(const Eigen::Vector3d& view_dir_in_object, const ObjectSymmetry& symmetry);
 
+/// Of the camera rotations equivalent to `rotation` by the object's rotational symmetries
+/// (R R_S: the identity, each discrete rotation and, combined with each, every turn about a
+/// continuous axis), the one nearest `reference` (smallest angle of R'^T reference). Exact for a
+/// continuous symmetry (the twist of the difference about the axis is removed). Makes
+/// frame-to-frame changes of a symmetric object's pose its motion, not a jump between equivalent
+/// poses. `rotation` itself for an object without rotations.
+Eigen::Matrix3d NearestEquivalentRotation(const Eigen::Matrix3d& rotation,
+                                          const Eigen::Matrix3d& reference,
+                                          const ObjectSymmetry& symmetry);
+
 /// The angle between two camera directions modulo an object's rotational symmetries: the
 /// smallest angle, degrees, between d_a and any direction equivalent to it (R_S^T d_a for the
 /// identity, the discrete rotations and, for a continuous symmetry about axis u, every turn about

@@ -115,6 +115,54 @@ TEST(Symmetry, CanonicalPosesAgreeForEquivalentPosesAndLookTheSame) {
   EXPECT_TRUE(none.rotation.isIdentity());
 }
 
+double AngleDegBetween(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(Eigen::Matrix3d(a.transpose() * b)).angle() * 180.0 / kPi;
+}
+
+TEST(Symmetry, NearestEquivalentRotationRemovesTheSymmetryFromAChange) {
+  std::mt19937 rng(7);
+  const Eigen::Matrix3d motion =
+      Eigen::AngleAxisd(2.0 * kPi / 180.0, Eigen::Vector3d(1, 2, 3).normalized())
+          .toRotationMatrix();
+  // Without rotations: the rotation itself, however far from the reference.
+  for (int i = 0; i < 5; ++i) {
+    const Eigen::Matrix3d r = RandomRotation(&rng);
+    const Eigen::Matrix3d reference = RandomRotation(&rng);
+    EXPECT_TRUE(NearestEquivalentRotation(r, reference, ObjectSymmetry()).isApprox(r, 1e-12));
+  }
+  const ObjectSymmetry bearing = Bearing();
+  const ObjectSymmetry bolt = HexBolt();
+  const std::vector<Rigid3> bearing_set = SymmetryTransforms(bearing);
+  const std::vector<Rigid3> bolt_set = SymmetryTransforms(bolt);
+  for (int i = 0; i < 20; ++i) {
+    const Eigen::Matrix3d reference = RandomRotation(&rng);
+    // The pose moved by 2 deg, then reported as an equivalent pose: turned about the continuous
+    // axis and flipped (bearing), or turned by a sixth (bolt).
+    const double twist = std::uniform_real_distribution<double>(-kPi, kPi)(rng);
+    const Eigen::Matrix3d turned_bearing =
+        motion * reference * Eigen::AngleAxisd(twist, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+        bearing.discrete[0].rotation;
+    const Eigen::Matrix3d near_bearing =
+        NearestEquivalentRotation(turned_bearing, reference, bearing);
+    // Equivalent to the reported pose: they differ by a turn about the axis (y), or a flip
+    // about x and a turn, which both keep the axis' line ...
+    const Eigen::Matrix3d between = near_bearing.transpose() * turned_bearing;
+    EXPECT_NEAR(std::abs((between * Eigen::Vector3d::UnitY()).y()), 1.0, 1e-9);
+    EXPECT_NEAR(RotationErrorModuloSymmetryDeg(near_bearing, turned_bearing, bearing_set), 0.0,
+                0.6);
+    // ... and the change from the reference is the motion's 2 deg at most (the twist of the
+    // motion about the axis is removed too), not the twist or the flip.
+    EXPECT_LE(AngleDegBetween(near_bearing, reference), 2.0 + 1e-9);
+    EXPECT_GT(AngleDegBetween(turned_bearing, reference), 2.0);
+
+    const Eigen::Matrix3d turned_bolt = motion * reference * bolt.discrete[i % 5].rotation;
+    const Eigen::Matrix3d near_bolt = NearestEquivalentRotation(turned_bolt, reference, bolt);
+    EXPECT_NEAR(RotationErrorModuloSymmetryDeg(near_bolt, turned_bolt, bolt_set), 0.0, 1e-6);
+    EXPECT_NEAR(AngleDegBetween(near_bolt, reference), 2.0, 1e-6);
+    EXPECT_GT(AngleDegBetween(turned_bolt, reference), 2.5);
+  }
+}
+
 TEST(Symmetry, DescribeAndCheck) {
   EXPECT_EQ(ObjectSymmetry().Describe(), "none");
   const std::string bearing = Bearing().Describe();
@@ -217,8 +265,8 @@ TEST(Symmetry, MirrorTwinPoseShowsTheSameOutlineAlongTheLineOfSight) {
     const Rigid3 twin = MirrorTwinPose(pose, mirror, on_plane);
 
     EXPECT_NEAR(twin.rotation.determinant(), 1.0, 1e-9);
-    EXPECT_TRUE((twin.rotation.transpose() * twin.rotation).isApprox(Eigen::Matrix3d::Identity(),
-                                                                       1e-9));
+    EXPECT_TRUE(
+        (twin.rotation.transpose() * twin.rotation).isApprox(Eigen::Matrix3d::Identity(), 1e-9));
     EXPECT_TRUE((twin * on_plane).isApprox(pose * on_plane, 1e-9)) << "the centre moved";
     const Rigid3 back = MirrorTwinPose(twin, mirror, on_plane);
     EXPECT_TRUE(back.rotation.isApprox(pose.rotation, 1e-9));

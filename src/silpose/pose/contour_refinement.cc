@@ -756,21 +756,64 @@ std::vector<Eigen::Vector3d> ModelOutlinePoints(const ContourModel& model,
   return ws.points;
 }
 
+namespace {
+
+// The checks RefinePoseToContour and ContourFitCost share (`what` names the function).
+void CheckRefinementInputs(const char* what, const ContourModel& model, const PinholeCamera& camera,
+                           const FrameOutline& frame, const Rigid3& initial,
+                           const ContourRefinementOptions& options) {
+  std::string error;
+  if (!options.Check(&error)) ThrowError(what, ": invalid options: ", error);
+  if (!camera.Check(&error)) ThrowError(what, ": invalid camera: ", error);
+  if (frame.mask().cols != camera.width_px || frame.mask().rows != camera.height_px) {
+    ThrowError(what, ": the frame mask is ", frame.mask().cols, " x ", frame.mask().rows,
+               " pixels, the camera's image ", camera.width_px, " x ", camera.height_px);
+  }
+  if (!((initial.rotation * model.centre() + initial.translation).z() > 0.0)) {
+    ThrowError(what, ": the object centre is not in front of the camera");
+  }
+}
+
+const ContourModel& CachedContourModel(const TriangleMesh& mesh) {
+  thread_local std::unique_ptr<ContourModel> cached;
+  if (!cached || !cached->SameMesh(mesh)) {
+    cached.reset();
+    cached = std::make_unique<ContourModel>(mesh);
+  }
+  return *cached;
+}
+
+}  // namespace
+
+double ContourFitCost(const ContourModel& model, const PinholeCamera& camera,
+                      const FrameOutline& frame, const Rigid3& pose,
+                      const ContourRefinementOptions& options) {
+  CheckRefinementInputs("ContourFitCost", model, camera, frame, pose, options);
+  Workspace& ws = ThreadWorkspace();
+  const bool distorted = HasDistortion(camera);
+  const Eigen::Vector3d centre_in_camera = pose.rotation * model.centre() + pose.translation;
+  SelectOutlinePoints(model, camera, pose, options.contour_points, ws);
+  ws.matches.clear();
+  Evaluate(camera, distorted, frame, pose, centre_in_camera, ws, options, nullptr, nullptr);
+  MatchFrameOutline(frame, options.contour_points, options.max_residual_px, ws);
+  const Evaluation fit =
+      Evaluate(camera, distorted, frame, pose, centre_in_camera, ws, options, nullptr, nullptr);
+  const size_t residuals = ws.points.size() + ws.matches.size();
+  if (fit.used < kMinPoints || residuals == 0) return std::nan("");
+  return fit.cost / static_cast<double>(residuals);
+}
+
+double ContourFitCost(const TriangleMesh& mesh, const PinholeCamera& camera,
+                      const FrameOutline& frame, const Rigid3& pose,
+                      const ContourRefinementOptions& options) {
+  return ContourFitCost(CachedContourModel(mesh), camera, frame, pose, options);
+}
+
 ContourRefinementResult RefinePoseToContour(const ContourModel& model, const PinholeCamera& camera,
                                             const FrameOutline& frame, const Rigid3& initial,
                                             const ContourRefinementOptions& options) {
-  std::string error;
-  if (!options.Check(&error)) ThrowError("RefinePoseToContour: invalid options: ", error);
-  if (!camera.Check(&error)) ThrowError("RefinePoseToContour: invalid camera: ", error);
-  if (frame.mask().cols != camera.width_px || frame.mask().rows != camera.height_px) {
-    ThrowError("RefinePoseToContour: the frame mask is ", frame.mask().cols, " x ",
-               frame.mask().rows, " pixels, the camera's image ", camera.width_px, " x ",
-               camera.height_px);
-  }
+  CheckRefinementInputs("RefinePoseToContour", model, camera, frame, initial, options);
   const Eigen::Vector3d centre = model.centre();
-  if (!((initial.rotation * centre + initial.translation).z() > 0.0)) {
-    ThrowError("RefinePoseToContour: the object centre is not in front of the camera");
-  }
   const bool distorted = HasDistortion(camera);
   Workspace& ws = ThreadWorkspace();
 
@@ -855,12 +898,7 @@ ContourRefinementResult RefinePoseToContour(const ContourModel& model, const Pin
 ContourRefinementResult RefinePoseToContour(const TriangleMesh& mesh, const PinholeCamera& camera,
                                             const FrameOutline& frame, const Rigid3& initial,
                                             const ContourRefinementOptions& options) {
-  thread_local std::unique_ptr<ContourModel> cached;
-  if (!cached || !cached->SameMesh(mesh)) {
-    cached.reset();
-    cached = std::make_unique<ContourModel>(mesh);
-  }
-  return RefinePoseToContour(*cached, camera, frame, initial, options);
+  return RefinePoseToContour(CachedContourModel(mesh), camera, frame, initial, options);
 }
 
 }  // namespace silpose

@@ -347,6 +347,45 @@ TEST(ContourRefinementTest, TruePoseIsAFixedPoint) {
   }
 }
 
+// The fit cost before refinement grows with the distance from the true pose, and is the cost
+// the refinement starts from: the nearer start costs less and needs fewer iterations.
+TEST(ContourRefinementTest, FitCostRanksStartingPoses) {
+  const TriangleMesh& mesh = Mesh("bunny");
+  const PinholeCamera camera = PlainCamera();
+  const Eigen::Vector3d centre = mesh.Centre();
+  std::mt19937 random(5);
+  int fewer_iterations = 0;
+  constexpr int kCases = 8;
+  for (int i = 0; i < kCases; ++i) {
+    const Rigid3 truth = TruePose(mesh, {1, 0.3 * i - 1.0, 0.2}, 25.0 * i, 4.0, 8.0, 40.0 * i);
+    const FrameOutline frame(RenderMask(mesh, camera, truth));
+    const double at_truth = ContourFitCost(mesh, camera, frame, truth);
+    const Rigid3 near = Perturb(truth, centre, 1.0, 0.002, random);
+    const Rigid3 far = Perturb(truth, centre, 4.0, 0.01, random);
+    const double near_cost = ContourFitCost(mesh, camera, frame, near);
+    const double far_cost = ContourFitCost(mesh, camera, frame, far);
+    EXPECT_LT(at_truth, 0.1) << i;  // pixel staircase only: about (0.3 px)^2 / 2
+    EXPECT_LT(at_truth, near_cost) << i;
+    EXPECT_LT(near_cost, far_cost) << i;
+    const ContourRefinementResult from_near = RefinePoseToContour(mesh, camera, frame, near);
+    const ContourRefinementResult from_far = RefinePoseToContour(mesh, camera, frame, far);
+    fewer_iterations += from_near.iterations < from_far.iterations;
+  }
+  EXPECT_GE(fewer_iterations, kCases - 2);
+  // Too few outline points in the frame's window (the model far from the silhouette): NaN.
+  const Rigid3 truth = TruePose(mesh, {1, 0.3, 0.2}, 10.0, 4.0, 0.0, 0.0);
+  const FrameOutline frame(RenderMask(mesh, camera, truth));
+  const Rigid3 aside = TruePose(mesh, {1, 0.3, 0.2}, 10.0, 4.0, 40.0, 0.0);
+  EXPECT_TRUE(std::isnan(ContourFitCost(mesh, camera, frame, aside)));
+  // Bad inputs throw as for the refinement, naming the function.
+  try {
+    (void)ContourFitCost(mesh, PinholeCamera::Centered(320, 240, 300.0), frame, truth);
+    FAIL() << "no exception for a frame of another size";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("ContourFitCost"), std::string::npos) << error.what();
+  }
+}
+
 // Depth is observed through the outline's size: starting 4 % too near or too far along the line
 // of sight, the distance is recovered (to 0.3 %; with lens distortion the masks synthesised here
 // leave a bias of about -0.45 %, so 0.6 %).

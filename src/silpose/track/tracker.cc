@@ -138,14 +138,90 @@ bool Improves(const ContourRefinementResult& refined) {
 void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
   SilhouettePose& pose = *tracked->pose;
   const FrameOutline& outline = Outline(*tracked);
+  Rigid3 start = pose.camera_from_object;
+  // Not for the fit arbitration's hypotheses (feed_filter false): they compete from their grid
+  // poses alike, or the motion start would favour the filter's mode.
+  const std::optional<Rigid3> carried =
+      feed_filter ? MotionStart(*tracked) : std::optional<Rigid3>();
+  if (carried) {
+    // Both starts measured on the frame's outline; the better one is refined.
+    const double grid_cost =
+        ContourFitCost(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
+    const double carried_cost =
+        ContourFitCost(mesh, camera_, outline, *carried, options_.refinement);
+    if (carried_cost < grid_cost || (std::isnan(grid_cost) && std::isfinite(carried_cost))) {
+      start = *carried;
+    }
+  }
   ContourRefinementResult refined =
-      RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
+      RefinePoseToContour(mesh, camera_, outline, start, options_.refinement);
+  if (!Improves(refined) && !(start.rotation == pose.camera_from_object.rotation)) {
+    // The motion start led nowhere: the grid pose's refinement, as without it.
+    refined =
+        RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
+  }
   if (!Improves(refined)) {
     tracked->refinement = std::move(refined);
     tracked->refinement->camera_from_object = pose.camera_from_object;
     return;
   }
   Adopt(mesh, std::move(refined), tracked, feed_filter);
+}
+
+std::optional<Rigid3> Tracker::MotionStart(const TrackedFrame& tracked) const {
+  const FrameResult& result = tracked.result;
+  // Only in filter mode, for the frame being processed (not a revised one), right after a
+  // refined frame of the same object.
+  if (!filter_ || !options_.refine_from_motion || !motion_prior_ || !tracked.pose ||
+      result.frame != frame_ || motion_prior_->frame != frame_ - 1 ||
+      motion_prior_->object != result.object || !result.view_dir_in_object) {
+    return std::nullopt;
+  }
+  const SilhouettePose& pose = *tracked.pose;
+  const Eigen::Matrix3d on_axis = motion_prior_->change * motion_prior_->on_axis;
+  // Its view direction (of the on-axis camera, as the database's) near the grid view's.
+  Eigen::Vector3d view_dir;
+  double roll_deg = 0.0;
+  ViewAndRollFromRotation(on_axis, &view_dir, &roll_deg);
+  const double apart_deg = equivalence_[static_cast<size_t>(result.object)].AngleDeg(
+      view_dir, *result.view_dir_in_object);
+  if (!(apart_deg <= options_.filter.mode_radius_deg)) return std::nullopt;
+  // Turned about the model's centre, which stays where the grid pose puts it.
+  const Eigen::Vector3d centre = database_.models[static_cast<size_t>(result.object)].mesh.Centre();
+  Rigid3 start = pose.camera_from_object;
+  start.rotation = RotationFromOpticalAxisTo(pose.centre_ray) * on_axis;
+  start.translation += (pose.camera_from_object.rotation - start.rotation) * centre;
+  return start;
+}
+
+void Tracker::RememberMotion(const TrackedFrame& tracked) {
+  const FrameResult& result = tracked.result;
+  if (!filter_ || !tracked.pose || !tracked.refinement || !Improves(*tracked.refinement) ||
+      result.object < 0) {
+    motion_prior_.reset();
+    return;
+  }
+  const SilhouettePose& pose = *tracked.pose;
+  MotionPrior next;
+  next.object = result.object;
+  next.frame = result.frame;
+  next.on_axis =
+      RotationFromOpticalAxisTo(pose.centre_ray).transpose() * pose.camera_from_object.rotation;
+  if (motion_prior_ && motion_prior_->object == next.object &&
+      motion_prior_->frame == next.frame - 1) {
+    // Of a symmetric object's equivalent poses, the one the motion reached (the refinement may
+    // settle on any of them).
+    next.on_axis =
+        NearestEquivalentRotation(next.on_axis, motion_prior_->on_axis,
+                                  database_.models[static_cast<size_t>(next.object)].symmetry);
+    const Eigen::Matrix3d change = next.on_axis * motion_prior_->on_axis.transpose();
+    // Faster than the filter's fastest motion: a jump (a cut, another pose), not motion.
+    if (Eigen::AngleAxisd(change).angle() <=
+        options_.filter.max_speed_deg * std::numbers::pi / 180.0) {
+      next.change = change;
+    }
+  }
+  motion_prior_ = next;
 }
 
 void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
@@ -867,6 +943,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     if (view != matched_view) shell = database_.ChooseShell(result.object, view, apparent_radius);
     result.time_refine_ms += lap();
   }
+  RememberMotion(tracked);
   Assess(&tracked, usable, radii, view, shell);
   Canonicalise(&result, /*runner_up=*/true);
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();

@@ -94,6 +94,19 @@ struct TrackerOptions {
   /// off. Another object needs the fit rule above: on poor masks a look-alike may score far
   /// higher.
   double fit_arbitration_score_gap = 0.3;
+  /// Motion start (filter mode with refinement; docs/tracking.md): the previous frame's refined
+  /// pose of the same object, turned on by the last frame-to-frame rotation, is a second
+  /// starting pose for the refinement, beside the database view's grid pose (up to half a grid
+  /// spacing off, about 3 degrees). When its view direction lies within the filter's
+  /// mode_radius_deg of the grid view's (modulo symmetry), the start whose outline fits the
+  /// frame better (ContourFitCost) is refined; if that refinement does not improve on its start,
+  /// the grid pose is refined as without it. From a start near the answer the refinement needs
+  /// fewer iterations and may converge where it would not from the grid pose. Only for the
+  /// reported hypothesis: the fit arbitration's hypotheses compete from their grid poses alike.
+  /// A symmetric object's previous pose is taken as the equivalent one nearest the motion
+  /// (NearestEquivalentRotation). Off: every frame is refined from its grid pose alone, as in
+  /// brute-force mode.
+  bool refine_from_motion = true;
   /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
   /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
   /// database's views cannot tell apart from far away) is refined against the frame's outline
@@ -230,6 +243,12 @@ class Tracker {
  private:
   /// `feed_filter`: the refined rotation updates the filter's velocity (Process, not Revise).
   void Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter);
+  /// The motion start (TrackerOptions::refine_from_motion) for the frame being processed, posed
+  /// at `tracked.pose` and its result's object and view; none if it does not apply.
+  std::optional<Rigid3> MotionStart(const TrackedFrame& tracked) const;
+  /// Keeps the reported refined pose of the frame just processed for the next frame's motion
+  /// start (or forgets the last one: no refined pose).
+  void RememberMotion(const TrackedFrame& tracked);
   /// Reports the refined pose `refined` (with the view and roll it means); `feed_filter`: it
   /// updates the filter's velocity.
   void Adopt(const TriangleMesh& mesh, ContourRefinementResult refined, TrackedFrame* tracked,
@@ -316,6 +335,16 @@ class Tracker {
   double arbitration_ms_ = 0.0;
   // The outline of frame outline_frame_'s mask (Outline).
   std::optional<FrameOutline> outline_;
+  /// The last reported refined pose, for the motion start (refine_from_motion).
+  struct MotionPrior {
+    int object = -1;
+    int64_t frame = -1;
+    /// Refined camera_from_object rotation of the on-axis camera.
+    Eigen::Matrix3d on_axis = Eigen::Matrix3d::Identity();
+    /// Its rotation since the frame before (identity if unknown or a jump).
+    Eigen::Matrix3d change = Eigen::Matrix3d::Identity();
+  };
+  std::optional<MotionPrior> motion_prior_;
   int64_t outline_frame_ = -1;
   const uint8_t* outline_data_ = nullptr;
 };
