@@ -116,7 +116,10 @@ Tracker::Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra
       });
     }
   }
-  for (const ModelViews& model : database_.models) equivalence_.emplace_back(model.symmetry);
+  for (const ModelViews& model : database_.models) {
+    equivalence_.emplace_back(model.symmetry);
+    centres_.push_back(model.mesh.Centre());
+  }
 }
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
@@ -139,6 +142,7 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
   SilhouettePose& pose = *tracked->pose;
   const FrameOutline& outline = Outline(*tracked);
   Rigid3 start = pose.camera_from_object;
+  bool from_carried = false;
   // Not for the fit arbitration's hypotheses (feed_filter false): they compete from their grid
   // poses alike, or the motion start would favour the filter's mode.
   const std::optional<Rigid3> carried =
@@ -151,11 +155,12 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
         ContourFitCost(mesh, camera_, outline, *carried, options_.refinement);
     if (carried_cost < grid_cost || (std::isnan(grid_cost) && std::isfinite(carried_cost))) {
       start = *carried;
+      from_carried = true;
     }
   }
   ContourRefinementResult refined =
       RefinePoseToContour(mesh, camera_, outline, start, options_.refinement);
-  if (!Improves(refined) && !(start.rotation == pose.camera_from_object.rotation)) {
+  if (!Improves(refined) && from_carried) {
     // The motion start led nowhere: the grid pose's refinement, as without it.
     refined =
         RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
@@ -187,7 +192,7 @@ std::optional<Rigid3> Tracker::MotionStart(const TrackedFrame& tracked) const {
       view_dir, *result.view_dir_in_object);
   if (!(apart_deg <= options_.filter.mode_radius_deg)) return std::nullopt;
   // Turned about the model's centre, which stays where the grid pose puts it.
-  const Eigen::Vector3d centre = database_.models[static_cast<size_t>(result.object)].mesh.Centre();
+  const Eigen::Vector3d& centre = centres_[static_cast<size_t>(result.object)];
   Rigid3 start = pose.camera_from_object;
   start.rotation = RotationFromOpticalAxisTo(pose.centre_ray) * on_axis;
   start.translation += (pose.camera_from_object.rotation - start.rotation) * centre;

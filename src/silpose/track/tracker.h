@@ -314,6 +314,8 @@ class Tracker {
   std::unique_ptr<TrackStateEstimator> state_;
   /// Per model: views alike by its rotational symmetries.
   std::vector<ViewEquivalence> equivalence_;
+  /// Per object: its mesh's Centre() (a pass over the vertices), computed once.
+  std::vector<Eigen::Vector3d> centres_;
   SignatureSpectrum twin_query_;
   /// Per model: its symmetry transforms, coarsely sampled (SymmetryTransformsOf).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;
