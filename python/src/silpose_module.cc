@@ -861,9 +861,9 @@ void BindTrack(py::module_& m) {
                      "... or, for a challenger of the same object that fits at least as well, "
                      "if its score is higher by at least this much (0.3; 0 = off).")
       .def_readwrite("refine_from_motion", &TrackerOptions::refine_from_motion,
-                     "Filter mode: also start the refinement from the previous frame's refined "
-                     "pose, turned on by the last frame-to-frame rotation, when its outline fits "
-                     "the frame better than the grid pose's (on by default).")
+                     "Filter mode: also refine from the previous frame's refined pose, turned "
+                     "on by the last frame-to-frame rotation, and keep whichever of the two "
+                     "refined poses fits the frame's outline better (on by default).")
       .def_readwrite("mirror_twin_check", &TrackerOptions::mirror_twin_check,
                      "For an object with a mirror plane, also fit the mirror twin of the matched "
                      "pose (the pose casting the same outline from far away) and report it when "

@@ -809,6 +809,17 @@ double ContourFitCost(const TriangleMesh& mesh, const PinholeCamera& camera,
   return ContourFitCost(CachedContourModel(mesh), camera, frame, pose, options);
 }
 
+double ContourIou(const ContourModel& model, const PinholeCamera& camera, const FrameOutline& frame,
+                  const Rigid3& pose) {
+  CheckRefinementInputs("ContourIou", model, camera, frame, pose, ContourRefinementOptions{});
+  return ComputeIou(model, camera, HasDistortion(camera), frame, pose, ThreadWorkspace());
+}
+
+double ContourIou(const TriangleMesh& mesh, const PinholeCamera& camera, const FrameOutline& frame,
+                  const Rigid3& pose) {
+  return ContourIou(CachedContourModel(mesh), camera, frame, pose);
+}
+
 ContourRefinementResult RefinePoseToContour(const ContourModel& model, const PinholeCamera& camera,
                                             const FrameOutline& frame, const Rigid3& initial,
                                             const ContourRefinementOptions& options) {

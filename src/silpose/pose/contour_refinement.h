@@ -228,6 +228,16 @@ double ContourFitCost(const TriangleMesh& mesh, const PinholeCamera& camera,
                       const FrameOutline& frame, const Rigid3& pose,
                       const ContourRefinementOptions& options = {});
 
+/// The IoU of the model's silhouette at `pose` with the frame's, as RefinePoseToContour reports
+/// it with compute_iou (ContourRefinementResult::iou): one rendering. For a pose refined without
+/// it, e.g. the one kept of several refinements. Throws as RefinePoseToContour.
+double ContourIou(const ContourModel& model, const PinholeCamera& camera, const FrameOutline& frame,
+                  const Rigid3& pose);
+
+/// Same, for a mesh (the per-thread ContourModel of RefinePoseToContour's mesh overload).
+double ContourIou(const TriangleMesh& mesh, const PinholeCamera& camera, const FrameOutline& frame,
+                  const Rigid3& pose);
+
 /// The model -> frame residuals and their Jacobian at `pose` for outline points
 /// `points_in_object` (model frame), as RefinePoseToContour computes them but without the
 /// rendered-outline offsets o: residual[i] (pixels) and row i of `jacobian` (d residual / d(w, d),

@@ -386,6 +386,35 @@ TEST(ContourRefinementTest, FitCostRanksStartingPoses) {
   }
 }
 
+// ContourIou is the IoU the refinement reports, for any pose: near 1 at the truth (the pixel
+// staircase only), lower the farther the pose, and exactly the refinement's at its result.
+TEST(ContourRefinementTest, IouOfAPoseIsTheRefinementsIou) {
+  const TriangleMesh& mesh = Mesh("bunny");
+  const PinholeCamera camera = PlainCamera();
+  const Eigen::Vector3d centre = mesh.Centre();
+  std::mt19937 random(7);
+  for (int i = 0; i < 4; ++i) {
+    const Rigid3 truth = TruePose(mesh, {1, 0.4 * i - 0.6, 0.3}, 30.0 * i, 4.0, 6.0, 50.0 * i);
+    const FrameOutline frame(RenderMask(mesh, camera, truth));
+    const Rigid3 near = Perturb(truth, centre, 1.0, 0.002, random);
+    const Rigid3 far = Perturb(truth, centre, 6.0, 0.02, random);
+    const double at_truth = ContourIou(mesh, camera, frame, truth);
+    EXPECT_GT(at_truth, 0.98) << i;
+    EXPECT_LT(ContourIou(mesh, camera, frame, far), ContourIou(mesh, camera, frame, near)) << i;
+    const ContourRefinementResult refined = RefinePoseToContour(mesh, camera, frame, far);
+    EXPECT_EQ(ContourIou(mesh, camera, frame, refined.camera_from_object), refined.iou) << i;
+    EXPECT_GT(refined.iou, ContourIou(mesh, camera, frame, far)) << i;
+  }
+  const Rigid3 truth = TruePose(mesh, {1, 0.3, 0.2}, 10.0, 4.0, 0.0, 0.0);
+  const FrameOutline frame(RenderMask(mesh, camera, truth));
+  try {
+    (void)ContourIou(mesh, PinholeCamera::Centered(320, 240, 300.0), frame, truth);
+    FAIL() << "no exception for a frame of another size";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("ContourIou"), std::string::npos) << error.what();
+  }
+}
+
 // Depth is observed through the outline's size: starting 4 % too near or too far along the line
 // of sight, the distance is recovered (to 0.3 %; with lens distortion the masks synthesised here
 // leave a bias of about -0.45 %, so 0.6 %).

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <numbers>
 
 #include "silpose/geometry/view_frame.h"
@@ -136,34 +137,43 @@ bool Improves(const ContourRefinementResult& refined) {
          refined.camera_from_object.translation.allFinite();
 }
 
+// The outline distance of the pose a refinement leaves: the refined pose's if it improved, the
+// start's otherwise (infinite without enough outline points).
+double FinalFit(const ContourRefinementResult& refined) {
+  if (Improves(refined)) return refined.final_rms_px;
+  return refined.points_used >= 6 && std::isfinite(refined.initial_rms_px)
+             ? refined.initial_rms_px
+             : std::numeric_limits<double>::infinity();
+}
+
 }  // namespace
 
 void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
   SilhouettePose& pose = *tracked->pose;
   const FrameOutline& outline = Outline(*tracked);
-  Rigid3 start = pose.camera_from_object;
-  bool from_carried = false;
   // Not for the fit arbitration's hypotheses (feed_filter false): they compete from their grid
   // poses alike, or the motion start would favour the filter's mode.
   const std::optional<Rigid3> carried =
       feed_filter ? MotionStart(*tracked) : std::optional<Rigid3>();
-  if (carried) {
-    // Both starts measured on the frame's outline; the better one is refined.
-    const double grid_cost =
-        ContourFitCost(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
-    const double carried_cost =
-        ContourFitCost(mesh, camera_, outline, *carried, options_.refinement);
-    if (carried_cost < grid_cost || (std::isnan(grid_cost) && std::isfinite(carried_cost))) {
-      start = *carried;
-      from_carried = true;
-    }
-  }
+  ContourRefinementOptions options = options_.refinement;
+  // With two refinements, the IoU only of the pose kept.
+  if (carried) options.compute_iou = false;
   ContourRefinementResult refined =
-      RefinePoseToContour(mesh, camera_, outline, start, options_.refinement);
-  if (!Improves(refined) && from_carried) {
-    // The motion start led nowhere: the grid pose's refinement, as without it.
-    refined =
-        RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options_.refinement);
+      RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options);
+  if (carried) {
+    // Both starts are refined and the pose that ends closer to the outline is kept: from either
+    // start the refinement can stop in a shallow minimum the other avoids, and the fit it ends
+    // with, not the one it starts from, is what the frame shows.
+    ContourRefinementResult from_motion =
+        RefinePoseToContour(mesh, camera_, outline, *carried, options);
+    if (Improves(from_motion) && from_motion.final_rms_px < FinalFit(refined)) {
+      refined = std::move(from_motion);
+    }
+    if (options_.refinement.compute_iou) {
+      refined.iou =
+          ContourIou(mesh, camera_, outline,
+                     Improves(refined) ? refined.camera_from_object : pose.camera_from_object);
+    }
   }
   if (!Improves(refined)) {
     tracked->refinement = std::move(refined);

@@ -98,14 +98,13 @@ struct TrackerOptions {
   /// pose of the same object, turned on by the last frame-to-frame rotation, is a second
   /// starting pose for the refinement, beside the database view's grid pose (up to half a grid
   /// spacing off, about 3 degrees). When its view direction lies within the filter's
-  /// mode_radius_deg of the grid view's (modulo symmetry), the start whose outline fits the
-  /// frame better (ContourFitCost) is refined; if that refinement does not improve on its start,
-  /// the grid pose is refined as without it. From a start near the answer the refinement needs
-  /// fewer iterations and may converge where it would not from the grid pose. Only for the
-  /// reported hypothesis: the fit arbitration's hypotheses compete from their grid poses alike.
-  /// A symmetric object's previous pose is taken as the equivalent one nearest the motion
-  /// (NearestEquivalentRotation). Off: every frame is refined from its grid pose alone, as in
-  /// brute-force mode.
+  /// mode_radius_deg of the grid view's (modulo symmetry), both starts are refined and the pose
+  /// that ends closer to the frame's outline (robust RMS distance) is kept: from either start the
+  /// refinement can stop in a shallow minimum that the other avoids. Costs a second refinement
+  /// in such frames. Only for the reported hypothesis: the fit arbitration's hypotheses compete
+  /// from their grid poses alike. A symmetric object's previous pose is taken as the equivalent
+  /// one nearest the motion (NearestEquivalentRotation). Off: every frame is refined from its
+  /// grid pose alone, as in brute-force mode.
   bool refine_from_motion = true;
   /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
   /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
