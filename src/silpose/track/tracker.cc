@@ -169,10 +169,10 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
     if (Improves(from_motion) && from_motion.final_rms_px < FinalFit(refined)) {
       refined = std::move(from_motion);
     }
-    if (options_.refinement.compute_iou) {
-      refined.iou =
-          ContourIou(mesh, camera_, outline,
-                     Improves(refined) ? refined.camera_from_object : pose.camera_from_object);
+    const Rigid3& kept = Improves(refined) ? refined.camera_from_object : pose.camera_from_object;
+    const Eigen::Vector3d& centre = centres_[static_cast<size_t>(tracked->result.object)];
+    if (options_.refinement.compute_iou && (kept * centre).z() > 0.0) {
+      refined.iou = ContourIou(mesh, camera_, outline, kept);
     }
   }
   if (!Improves(refined)) {
