@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
@@ -88,6 +89,8 @@ struct Workspace {
   std::vector<Eigen::Vector2d> normals;
   // Frame outline points matched to a model outline point: (frame point, index into points).
   std::vector<std::pair<Eigen::Vector2d, size_t>> matches;
+  // The projected outline points, binned (MatchFrameOutline).
+  contour_internal::NearestPointGrid grid;
   // Per outline point at the last evaluated pose: camera frame, in front of the camera, pixel
   // (distorted) and d(pixel) / d(camera frame).
   std::vector<Eigen::Vector3d> point_in_camera;
@@ -157,6 +160,40 @@ void RenderWindow(const TriangleMesh& mesh, const PinholeCamera& camera, const R
   RenderSilhouette(mesh, cropped, pose, &ws.render);
 }
 
+// ws.facing[f]: whether the camera centre is on the side of face f's plane its normal points to.
+void ComputeFacing(const ContourModel& model, const Rigid3& pose, Workspace& ws) {
+  const Eigen::Vector3d eye = -(pose.rotation.transpose() * pose.translation);
+  const std::vector<Eigen::Vector3d>& normals = model.normals();
+  const std::vector<double>& offsets = model.offsets();
+  ws.facing.resize(normals.size());
+  for (size_t f = 0; f < normals.size(); ++f) {
+    ws.facing[f] = normals[f].dot(eye) > offsets[f] ? 1 : 0;
+  }
+}
+
+// Renders the model's silhouette at `pose` into ws.render over `window` (RenderWindow). A closed
+// mesh's silhouette is that of its triangles facing the camera (ws.facing, from ComputeFacing at
+// `pose`): only those are drawn.
+void RenderModel(const ContourModel& model, const PinholeCamera& camera, const Rigid3& pose,
+                 const cv::Rect& window, Workspace& ws) {
+  const TriangleMesh& mesh = model.mesh();
+  if (!model.closed()) {
+    RenderWindow(mesh, camera, pose, window, ws);
+    return;
+  }
+  const uint8_t front = model.outward() ? 1 : 0;
+  if (ws.front_mesh.vertices.size() != mesh.vertices.size() ||
+      std::memcmp(ws.front_mesh.vertices.data(), mesh.vertices.data(),
+                  mesh.vertices.size() * sizeof(Eigen::Vector3f)) != 0) {
+    ws.front_mesh.vertices = mesh.vertices;
+  }
+  ws.front_mesh.triangles.clear();
+  for (size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (ws.facing[f] == front) ws.front_mesh.triangles.push_back(mesh.triangles[f]);
+  }
+  RenderWindow(ws.front_mesh, camera, pose, window, ws);
+}
+
 // Outline points into ws.points (see the header).
 void SelectOutlinePoints(const ContourModel& model, const PinholeCamera& camera, const Rigid3& pose,
                          int max_points, Workspace& ws) {
@@ -166,30 +203,8 @@ void SelectOutlinePoints(const ContourModel& model, const PinholeCamera& camera,
   const TriangleMesh& mesh = model.mesh();
   const cv::Rect window = ModelWindow(mesh, camera, pose, ws);
   if (window.area() == 0) return;
-  // Which side of each face's plane the camera centre is on.
-  const Eigen::Vector3d eye = -(pose.rotation.transpose() * pose.translation);
-  const std::vector<Eigen::Vector3d>& normals = model.normals();
-  const std::vector<double>& offsets = model.offsets();
-  ws.facing.resize(normals.size());
-  for (size_t f = 0; f < normals.size(); ++f) {
-    ws.facing[f] = normals[f].dot(eye) > offsets[f] ? 1 : 0;
-  }
-  if (model.closed()) {
-    // A closed mesh's silhouette is that of its triangles facing the camera: draw only those.
-    const uint8_t front = model.outward() ? 1 : 0;
-    if (ws.front_mesh.vertices.size() != mesh.vertices.size() ||
-        std::memcmp(ws.front_mesh.vertices.data(), mesh.vertices.data(),
-                    mesh.vertices.size() * sizeof(Eigen::Vector3f)) != 0) {
-      ws.front_mesh.vertices = mesh.vertices;
-    }
-    ws.front_mesh.triangles.clear();
-    for (size_t f = 0; f < normals.size(); ++f) {
-      if (ws.facing[f] == front) ws.front_mesh.triangles.push_back(mesh.triangles[f]);
-    }
-    RenderWindow(ws.front_mesh, camera, pose, window, ws);
-  } else {
-    RenderWindow(mesh, camera, pose, window, ws);
-  }
+  ComputeFacing(model, pose, ws);
+  RenderModel(model, camera, pose, window, ws);
 
   // Total projected length of the contour generator.
   const auto is_contour = [&ws](const ContourModel::Edge& e) {
@@ -365,29 +380,20 @@ Evaluation Evaluate(const PinholeCamera& camera, bool distorted, const FrameOutl
 
 // Matches up to `max_matches` frame outline points, evenly spread, to the nearest projected model
 // outline point (ws.projections, from the last Evaluate at the current pose) within
-// `max_distance_px`.
+// `max_distance_px` (ties: the lowest index).
 void MatchFrameOutline(const FrameOutline& frame, int max_matches, double max_distance_px,
                        Workspace& ws) {
   ws.matches.clear();
   const std::vector<Eigen::Vector2d>& outline = frame.outline_points();
   if (outline.empty() || ws.points.empty()) return;
+  ws.grid.Build(ws.projections, ws.in_front);
   const double step =
       std::max(1.0, static_cast<double>(outline.size()) / static_cast<double>(max_matches));
-  const double limit = max_distance_px * max_distance_px;
   for (double position = 0.5 * step; position < static_cast<double>(outline.size());
        position += step) {
     const Eigen::Vector2d& q = outline[static_cast<size_t>(position)];
-    double best = limit;
-    size_t best_index = ws.points.size();
-    for (size_t j = 0; j < ws.points.size(); ++j) {
-      if (!ws.in_front[j]) continue;
-      const double d = (ws.projections[j] - q).squaredNorm();
-      if (d < best) {
-        best = d;
-        best_index = j;
-      }
-    }
-    if (best_index < ws.points.size()) ws.matches.emplace_back(q, best_index);
+    const int nearest = ws.grid.Nearest(q, max_distance_px);
+    if (nearest >= 0) ws.matches.emplace_back(q, static_cast<size_t>(nearest));
   }
 }
 
@@ -467,7 +473,8 @@ double ComputeIou(const ContourModel& model, const PinholeCamera& camera, bool d
   }
   window = (window.area() > 0 ? (window | frame_ideal) : frame_ideal) & image;
   if (window.area() == 0) return 0.0;
-  RenderWindow(model.mesh(), camera, pose, window, ws);
+  if (model.closed()) ComputeFacing(model, pose, ws);
+  RenderModel(model, camera, pose, window, ws);
   const cv::Mat& mask = frame.mask();
   int64_t both = 0, either = 0;
   if (!distorted) {
@@ -500,6 +507,106 @@ double ComputeIou(const ContourModel& model, const PinholeCamera& camera, bool d
 }
 
 }  // namespace
+
+namespace contour_internal {
+
+void NearestPointGrid::Build(std::span<const Eigen::Vector2d> points,
+                             std::span<const uint8_t> usable) {
+  SILPOSE_ASSERT(usable.size() == points.size());
+  points_ = points;
+  const auto ok = [&](size_t j) {
+    return usable[j] != 0 && std::isfinite(points[j].x()) && std::isfinite(points[j].y());
+  };
+  double min_u = std::numeric_limits<double>::infinity(), min_v = min_u;
+  double max_u = -min_u, max_v = -min_u;
+  for (size_t j = 0; j < points.size(); ++j) {
+    if (!ok(j)) continue;
+    min_u = std::min(min_u, points[j].x());
+    max_u = std::max(max_u, points[j].x());
+    min_v = std::min(min_v, points[j].y());
+    max_v = std::max(max_v, points[j].y());
+  }
+  cell_start_.clear();
+  sorted_.clear();
+  if (!(max_u >= min_u)) {
+    columns_ = rows_ = 0;
+    return;
+  }
+  origin_ = {min_u, min_v};
+  cell_px_ =
+      std::max({kCellPx, (max_u - min_u) / (kMaxCells - 1), (max_v - min_v) / (kMaxCells - 1)});
+  columns_ = std::min(static_cast<int>((max_u - min_u) / cell_px_) + 1, kMaxCells);
+  rows_ = std::min(static_cast<int>((max_v - min_v) / cell_px_) + 1, kMaxCells);
+  const auto cell_of = [&](const Eigen::Vector2d& p) {
+    const int column = std::clamp(static_cast<int>((p.x() - min_u) / cell_px_), 0, columns_ - 1);
+    const int row = std::clamp(static_cast<int>((p.y() - min_v) / cell_px_), 0, rows_ - 1);
+    return row * columns_ + column;
+  };
+  // Counting sort by cell; within a cell the indices stay ascending.
+  cell_start_.assign(static_cast<size_t>(columns_) * rows_ + 1, 0);
+  point_cell_.assign(points.size(), -1);
+  for (size_t j = 0; j < points.size(); ++j) {
+    if (!ok(j)) continue;
+    point_cell_[j] = cell_of(points[j]);
+    ++cell_start_[static_cast<size_t>(point_cell_[j]) + 1];
+  }
+  for (size_t c = 1; c < cell_start_.size(); ++c) cell_start_[c] += cell_start_[c - 1];
+  sorted_.resize(static_cast<size_t>(cell_start_.back()));
+  fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
+  for (size_t j = 0; j < points.size(); ++j) {
+    if (point_cell_[j] < 0) continue;
+    sorted_[static_cast<size_t>(fill_[static_cast<size_t>(point_cell_[j])]++)] =
+        static_cast<uint32_t>(j);
+  }
+}
+
+int NearestPointGrid::Nearest(const Eigen::Vector2d& q, double max_distance) const {
+  if (columns_ == 0 || !std::isfinite(q.x()) || !std::isfinite(q.y()) || !(max_distance > 0.0)) {
+    return -1;
+  }
+  // The query's cell, not clamped: it may lie beyond the grid.
+  const double qu = std::floor((q.x() - origin_.x()) / cell_px_);
+  const double qv = std::floor((q.y() - origin_.y()) / cell_px_);
+  const double limit = max_distance * max_distance;
+  double best = limit;
+  int best_index = -1;
+  const auto visit = [&](int row, int column) {
+    const size_t cell = static_cast<size_t>(row) * columns_ + column;
+    for (int k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+      const uint32_t j = sorted_[static_cast<size_t>(k)];
+      const double d = (points_[j] - q).squaredNorm();
+      if (d < best || (d == best && best_index >= 0 && static_cast<int>(j) < best_index)) {
+        best = d;
+        best_index = static_cast<int>(j);
+      }
+    }
+  };
+  // Rings of cells at Chebyshev distance r from the query's cell, outwards. A point in ring r is
+  // more than (r - 1) cells from the query: the search stops at the first ring that cannot hold a
+  // point nearer than the best so far, or within reach (with a little slack for the rounding of
+  // the cell indices). It starts at the ring just inside the nearest cell of the grid.
+  const double first_ring = std::max({-1.0 - qu, qu - columns_, -1.0 - qv, qv - rows_, 0.0});
+  const double last_ring = columns_ + rows_ + 2.0;
+  if (first_ring > last_ring) return -1;
+  const int row = static_cast<int>(qv), column = static_cast<int>(qu);
+  for (int ring = static_cast<int>(first_ring); ring <= last_ring; ++ring) {
+    const double reach = std::max((ring - 1.0) * cell_px_ - 1e-6, 0.0);
+    if (reach * reach > best || reach * reach >= limit) break;
+    const int r0 = std::max(row - ring, 0), r1 = std::min(row + ring, rows_ - 1);
+    const int c0 = std::max(column - ring, 0), c1 = std::min(column + ring, columns_ - 1);
+    for (int r = r0; r <= r1; ++r) {
+      if (r == row - ring || r == row + ring) {
+        for (int c = c0; c <= c1; ++c) visit(r, c);
+        continue;
+      }
+      if (column - ring >= 0 && column - ring < columns_) visit(r, column - ring);
+      if (ring > 0 && column + ring >= 0 && column + ring < columns_) visit(r, column + ring);
+    }
+  }
+  return best_index;
+}
+
+}  // namespace contour_internal
 
 bool ContourRefinementOptions::Check(std::string* error) const {
   std::ostringstream message;

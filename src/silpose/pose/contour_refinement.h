@@ -50,6 +50,7 @@
 #include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -258,5 +259,36 @@ Rigid3 ApplyContourUpdate(const Rigid3& pose, const Eigen::Vector3d& centre,
 std::vector<Eigen::Vector3d> ModelOutlinePoints(const ContourModel& model,
                                                 const PinholeCamera& camera, const Rigid3& pose,
                                                 int max_points);
+
+namespace contour_internal {
+
+/// Exact nearest-neighbour search among 2D points (pixels) within a radius, as the refinement
+/// matches the frame's outline points to the model's: the points are binned in square cells, and
+/// each query searches the rings of cells around its own outwards until no nearer point can be
+/// left. Internal to the refinement; declared here for its tests.
+class NearestPointGrid {
+ public:
+  /// Bins `points` (kept by reference until the next Build); those with usable[j] == 0 or a
+  /// non-finite coordinate are left out. Same sizes.
+  void Build(std::span<const Eigen::Vector2d> points, std::span<const uint8_t> usable);
+  /// The index of the point nearest to `q` at a distance below `max_distance` (the lowest index
+  /// among equally near ones), or -1 if there is none.
+  int Nearest(const Eigen::Vector2d& q, double max_distance) const;
+
+ private:
+  static constexpr double kCellPx = 8.0;  // About the spacing of the refinement's outline points.
+  static constexpr int kMaxCells = 64;    // Per side; wider cells for a wider spread.
+  std::span<const Eigen::Vector2d> points_;
+  Eigen::Vector2d origin_ = Eigen::Vector2d::Zero();
+  double cell_px_ = kCellPx;
+  int columns_ = 0;
+  int rows_ = 0;
+  std::vector<int> cell_start_;  // First entry of each cell in sorted_, and one past the last.
+  std::vector<int> fill_;
+  std::vector<int> point_cell_;
+  std::vector<uint32_t> sorted_;  // Point indices by cell.
+};
+
+}  // namespace contour_internal
 
 }  // namespace silpose

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
@@ -501,6 +502,71 @@ TEST(ContourRefinementTest, ImprovesOnDegradedMasks) {
 
 // The model outline points lie on the rendered outline: their projections are within the pixel
 // cell the outline crosses (|distance| < 1.5 px, typically < 0.5 px) of the model's own rendering.
+TEST(ContourRefinementTest, NearestPointGridIsTheExhaustiveSearch) {
+  // The refinement's frame -> model matching: the grid's answer must be the exhaustive search's,
+  // ties to the lowest index, unusable and non-finite points never matched, for queries inside,
+  // between and far outside the points, and for spreads from one pixel to a million.
+  std::mt19937 random(5);
+  const auto exhaustive = [](const std::vector<Eigen::Vector2d>& points,
+                             const std::vector<uint8_t>& usable, const Eigen::Vector2d& q,
+                             double max_distance) {
+    double best = max_distance * max_distance;
+    int index = -1;
+    for (size_t j = 0; j < points.size(); ++j) {
+      if (!usable[j]) continue;
+      const double d = (points[j] - q).squaredNorm();
+      if (d < best) {
+        best = d;
+        index = static_cast<int>(j);
+      }
+    }
+    return index;
+  };
+  contour_internal::NearestPointGrid grid;
+  int matched = 0, unmatched = 0;
+  for (const double spread : {1.0, 40.0, 300.0, 1e6}) {
+    std::uniform_real_distribution<double> coordinate(-spread, spread);
+    for (int round = 0; round < 20; ++round) {
+      std::vector<Eigen::Vector2d> points;
+      std::vector<uint8_t> usable;
+      for (int j = 0; j < 200; ++j) {
+        // Pixel-rounded points half of the time, so that equal distances (ties) occur.
+        Eigen::Vector2d p(coordinate(random), coordinate(random));
+        if (j % 2 == 0) p = p.array().round();
+        points.push_back(p);
+        usable.push_back(random() % 7 != 0);
+      }
+      points[3] = points[10];  // Two equal points: the lower index wins.
+      points[17].x() = std::nan("");
+      points[18].y() = std::numeric_limits<double>::infinity();
+      grid.Build(points, usable);
+      std::vector<uint8_t> finite = usable;
+      finite[17] = finite[18] = 0;
+      for (int k = 0; k < 200; ++k) {
+        Eigen::Vector2d q(1.5 * coordinate(random), 1.5 * coordinate(random));
+        if (k % 3 == 0) q = q.array().round();
+        if (k % 10 == 0) q = points[static_cast<size_t>(k % 200)];
+        for (const double max_distance : {0.5, 3.0, 30.0, 1e7}) {
+          const int expected = exhaustive(points, finite, q, max_distance);
+          ASSERT_EQ(grid.Nearest(q, max_distance), expected)
+              << "spread " << spread << " query (" << q.x() << ", " << q.y() << ") within "
+              << max_distance;
+          (expected >= 0 ? matched : unmatched) += 1;
+        }
+      }
+      EXPECT_EQ(grid.Nearest(Eigen::Vector2d(std::nan(""), 0.0), 1e9), -1);
+    }
+  }
+  // Both outcomes were exercised.
+  EXPECT_GT(matched, 1000);
+  EXPECT_GT(unmatched, 1000);
+  // No usable point: nothing is ever matched.
+  grid.Build(std::vector<Eigen::Vector2d>(4, Eigen::Vector2d(1, 1)), std::vector<uint8_t>(4, 0));
+  EXPECT_EQ(grid.Nearest(Eigen::Vector2d(1, 1), 10.0), -1);
+  grid.Build({}, {});
+  EXPECT_EQ(grid.Nearest(Eigen::Vector2d(0, 0), 10.0), -1);
+}
+
 TEST(ContourRefinementTest, OutlinePointsLieOnTheRenderedOutline) {
   for (const char* name : {"bunny", "anchor"}) {
     const TriangleMesh& mesh = Mesh(name);
