@@ -158,21 +158,22 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
   ContourRefinementOptions options = options_.refinement;
   // With two refinements, the IoU only of the pose kept.
   if (carried) options.compute_iou = false;
+  const ContourModel& contour = Contour(tracked->result.object);
   ContourRefinementResult refined =
-      RefinePoseToContour(mesh, camera_, outline, pose.camera_from_object, options);
+      RefinePoseToContour(contour, camera_, outline, pose.camera_from_object, options);
   if (carried) {
     // Both starts are refined and the pose that ends closer to the outline is kept: from either
     // start the refinement can stop in a shallow minimum the other avoids, and the fit it ends
     // with, not the one it starts from, is what the frame shows.
     ContourRefinementResult from_motion =
-        RefinePoseToContour(mesh, camera_, outline, *carried, options);
+        RefinePoseToContour(contour, camera_, outline, *carried, options);
     if (Improves(from_motion) && from_motion.final_rms_px < FinalFit(refined)) {
       refined = std::move(from_motion);
     }
     const Rigid3& kept = Improves(refined) ? refined.camera_from_object : pose.camera_from_object;
     const Eigen::Vector3d& centre = centres_[static_cast<size_t>(tracked->result.object)];
     if (options_.refinement.compute_iou && (kept * centre).z() > 0.0) {
-      refined.iou = ContourIou(mesh, camera_, outline, kept);
+      refined.iou = ContourIou(contour, camera_, outline, kept);
     }
   }
   if (!Improves(refined)) {
@@ -263,6 +264,15 @@ void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
   tracked->refinement = std::move(refined);
   // The refined orientation feeds the filter's velocity.
   if (filter_ && feed_filter) filter_->ObserveRotation(on_axis);
+}
+
+const ContourModel& Tracker::Contour(int object) {
+  SILPOSE_ASSERT(object >= 0 && static_cast<size_t>(object) < database_.models.size());
+  if (contours_.size() != database_.models.size()) contours_.resize(database_.models.size());
+  std::unique_ptr<ContourModel>& contour = contours_[static_cast<size_t>(object)];
+  if (!contour)
+    contour = std::make_unique<ContourModel>(database_.models[static_cast<size_t>(object)].mesh);
+  return *contour;
 }
 
 const FrameOutline& Tracker::Outline(const TrackedFrame& tracked) {
@@ -382,13 +392,13 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     screen.max_iterations = 1;
     screen.compute_iou = false;
     const ContourRefinementResult first =
-        RefinePoseToContour(model.mesh, camera_, Outline(*tracked), start, screen);
+        RefinePoseToContour(Contour(result.object), camera_, Outline(*tracked), start, screen);
     if (first.points_used < 6 ||
         !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
       continue;
     }
-    ContourRefinementResult twin =
-        RefinePoseToContour(model.mesh, camera_, Outline(*tracked), start, options_.refinement);
+    ContourRefinementResult twin = RefinePoseToContour(
+        Contour(result.object), camera_, Outline(*tracked), start, options_.refinement);
     if (twin.points_used < 6) continue;
     if (!Improves(twin)) twin.camera_from_object = start;
     const double rms = std::min(twin.final_rms_px, twin.initial_rms_px);
@@ -406,8 +416,8 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   const MirrorSymmetry& mirror = model.symmetry.mirrors[best_mirror];
   if (!((best->camera_from_object * centre).z() > 0.0)) return false;
   const Rigid3 back_start = MirrorTwinPose(best->camera_from_object, mirror, centre);
-  ContourRefinementResult back =
-      RefinePoseToContour(model.mesh, camera_, Outline(*tracked), back_start, options_.refinement);
+  ContourRefinementResult back = RefinePoseToContour(
+      Contour(result.object), camera_, Outline(*tracked), back_start, options_.refinement);
   if (!Improves(back)) back.camera_from_object = back_start;
   const double back_rms = std::min(back.final_rms_px, back.initial_rms_px);
   if (back.points_used >= 6 && std::isfinite(back_rms) &&
@@ -568,7 +578,8 @@ void Tracker::MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px) {
   try {
     const FrameOutline& outline = Outline(*tracked);
     const ContourRefinementResult fit =
-        RefinePoseToContour(mesh, camera_, outline, tracked->pose->camera_from_object, check);
+        RefinePoseToContour(Contour(tracked->result.object), camera_, outline,
+                            tracked->pose->camera_from_object, check);
     *iou = fit.iou;
     *rms_px = fit.final_rms_px;
   } catch (const Error&) {

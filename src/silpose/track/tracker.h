@@ -274,6 +274,9 @@ class Tracker {
                       const FilterEstimate::Hypothesis& challenger);
   /// The outline of `tracked`'s mask, built once per frame.
   const FrameOutline& Outline(const TrackedFrame& tracked);
+  // The refinement's model of an object's mesh, made on first use and kept (it sorts the mesh's
+  // edges: the fit arbitration may refine two objects in turn every frame).
+  const ContourModel& Contour(int object);
   /// Canonical forms of the result's pose and runner-up (TrackerOptions::canonical_poses).
   void Canonicalise(FrameResult* result, bool runner_up) const;
 
@@ -336,6 +339,7 @@ class Tracker {
   double arbitration_ms_ = 0.0;
   // The outline of frame outline_frame_'s mask (Outline).
   std::optional<FrameOutline> outline_;
+  std::vector<std::unique_ptr<ContourModel>> contours_;
   /// The last reported refined pose, for the motion start (refine_from_motion).
   struct MotionPrior {
     int object = -1;
