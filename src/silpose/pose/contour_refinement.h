@@ -208,7 +208,9 @@ ContourRefinementResult RefinePoseToContour(const ContourModel& model, const Pin
                                             const ContourRefinementOptions& options = {});
 
 /// Same, for a mesh: the ContourModel is built on the first call and kept per thread while the
-/// same mesh (compared by content) is refined again.
+/// same mesh (compared by content) is refined again. Building one sorts the mesh's edges (a few
+/// milliseconds for 10 000 triangles): to refine several meshes in turn, keep a ContourModel per
+/// mesh and call the overload above (the Tracker does).
 ContourRefinementResult RefinePoseToContour(const TriangleMesh& mesh, const PinholeCamera& camera,
                                             const FrameOutline& frame, const Rigid3& initial,
                                             const ContourRefinementOptions& options = {});
