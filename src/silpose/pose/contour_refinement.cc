@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -634,6 +635,57 @@ bool ContourRefinementOptions::Check(std::string* error) const {
   return false;
 }
 
+namespace {
+
+// One pass of FrameOutline's chamfer transform over `distance`: each row first from the row before
+// it (steps 1 and sqrt(2)), then along itself (step 1). kForward: rows from the top, each from the
+// left; else rows from the bottom, each from the right. A row's sweep is a chain of dependent
+// operations, so four rows are swept together, each two pixels behind the row before it (which it
+// needs up to the next pixel): the same operations on the same values as row after row.
+template <bool kForward>
+void ChamferPass(cv::Mat* distance) {
+  constexpr int kRows = 4;
+  constexpr float kDiagonal = static_cast<float>(std::numbers::sqrt2);
+  const int width = distance->cols, height = distance->rows;
+  // Element i of a row in the pass's order.
+  const auto at = [width](float* row, int i) -> float& {
+    return kForward ? row[i] : row[width - 1 - i];
+  };
+  const auto step = [&](float* row, float* previous, int i) {
+    float v = at(row, i);
+    if (previous != nullptr) {
+      if (i == 0) {
+        v = std::min({v, at(previous, 0) + 1.0f, at(previous, std::min(1, width - 1)) + kDiagonal});
+      } else if (i == width - 1) {
+        v = std::min({v, at(previous, i) + 1.0f, at(previous, i - 1) + kDiagonal});
+      } else {
+        v = std::min({v, at(previous, i) + 1.0f, at(previous, i - 1) + kDiagonal,
+                      at(previous, i + 1) + kDiagonal});
+      }
+    }
+    if (i > 0) v = std::min(v, at(row, i - 1) + 1.0f);
+    at(row, i) = v;
+  };
+  for (int first = 0; first < height; first += kRows) {
+    const int rows = std::min(kRows, height - first);
+    std::array<float*, kRows> row{};
+    std::array<float*, kRows> previous{};
+    for (int j = 0; j < rows; ++j) {
+      const int k = first + j;
+      row[j] = distance->ptr<float>(kForward ? k : height - 1 - k);
+      previous[j] = k == 0 ? nullptr : distance->ptr<float>(kForward ? k - 1 : height - k);
+    }
+    for (int t = 0; t < width + 2 * (rows - 1); ++t) {
+      for (int j = 0; j < rows; ++j) {
+        const int i = t - 2 * j;
+        if (i >= 0 && i < width) step(row[j], previous[j], i);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
   if (mask.empty() || mask.type() != CV_8UC1) {
     ThrowError("FrameOutline: the mask must be a non-empty CV_8UC1 image");
@@ -656,14 +708,33 @@ FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
   const int width = window_.width, height = window_.height;
   signed_distance_.create(window_.size(), CV_32FC1);
   constexpr float kFar = 1e9f;
-  constexpr float kDiagonal = static_cast<float>(std::numbers::sqrt2);
+  // 0 if the 8 bytes from p are all 0, 1 if none is, -1 otherwise.
+  const auto uniform8 = [](const uint8_t* p) {
+    uint64_t word;
+    std::memcpy(&word, p, 8);
+    if (word == 0) return 0;
+    constexpr uint64_t kOnes = 0x0101010101010101ull;
+    constexpr uint64_t kHighs = 0x8080808080808080ull;
+    return ((word - kOnes) & ~word & kHighs) == 0 ? 1 : -1;
+  };
   for (int y = 0; y < height; ++y) {
     const uint8_t* o = object.ptr<uint8_t>(y);
     const uint8_t* above = y > 0 ? object.ptr<uint8_t>(y - 1) : nullptr;
     const uint8_t* below = y + 1 < height ? object.ptr<uint8_t>(y + 1) : nullptr;
     float* d = signed_distance_.ptr<float>(y);
-    const float* d_above = y > 0 ? signed_distance_.ptr<float>(y - 1) : nullptr;
-    for (int x = 0; x < width; ++x) {
+    for (int x = 0; x < width;) {
+      // Eight pixels of one kind, as are their neighbours: none is next to the outline.
+      if (x + 8 <= width) {
+        const int kind = uniform8(o + x);
+        if (kind >= 0 && (x == 0 || (o[x - 1] != 0) == (kind == 1)) &&
+            (x + 8 == width || (o[x + 8] != 0) == (kind == 1)) &&
+            (above == nullptr || uniform8(above + x) == kind) &&
+            (below == nullptr || uniform8(below + x) == kind)) {
+          std::fill(d + x, d + x + 8, kFar);
+          x += 8;
+          continue;
+        }
+      }
       const bool in = o[x] != 0;
       bool edge = false;
       if (x + 1 < width && in != (o[x + 1] != 0)) {
@@ -677,38 +748,11 @@ FrameOutline::FrameOutline(const cv::Mat& mask, int margin_px) {
       edge =
           edge || (x > 0 && in != (o[x - 1] != 0)) || (above != nullptr && in != (above[x] != 0));
       d[x] = edge ? 0.0f : kFar;
+      ++x;
     }
-    // Forward pass: the row above (no dependency along the row), then a sweep to the right.
-    if (d_above != nullptr) {
-      d[0] = std::min({d[0], d_above[0] + 1.0f, d_above[std::min(1, width - 1)] + kDiagonal});
-      for (int x = 1; x + 1 < width; ++x) {
-        d[x] = std::min(
-            {d[x], d_above[x] + 1.0f, d_above[x - 1] + kDiagonal, d_above[x + 1] + kDiagonal});
-      }
-      if (width > 1) {
-        d[width - 1] =
-            std::min({d[width - 1], d_above[width - 1] + 1.0f, d_above[width - 2] + kDiagonal});
-      }
-    }
-    for (int x = 1; x < width; ++x) d[x] = std::min(d[x], d[x - 1] + 1.0f);
   }
-  // Backward pass: the row below, then a sweep to the left.
-  for (int y = height - 1; y >= 0; --y) {
-    float* d = signed_distance_.ptr<float>(y);
-    const float* d_below = y + 1 < height ? signed_distance_.ptr<float>(y + 1) : nullptr;
-    if (d_below != nullptr) {
-      d[0] = std::min({d[0], d_below[0] + 1.0f, d_below[std::min(1, width - 1)] + kDiagonal});
-      for (int x = 1; x + 1 < width; ++x) {
-        d[x] = std::min(
-            {d[x], d_below[x] + 1.0f, d_below[x - 1] + kDiagonal, d_below[x + 1] + kDiagonal});
-      }
-      if (width > 1) {
-        d[width - 1] =
-            std::min({d[width - 1], d_below[width - 1] + 1.0f, d_below[width - 2] + kDiagonal});
-      }
-    }
-    for (int x = width - 2; x >= 0; --x) d[x] = std::min(d[x], d[x + 1] + 1.0f);
-  }
+  ChamferPass<true>(&signed_distance_);
+  ChamferPass<false>(&signed_distance_);
   // The outline runs half a pixel beyond the pixels next to it: signed distance -(d + 0.5)
   // inside, d + 0.5 outside.
   for (int y = 0; y < height; ++y) {

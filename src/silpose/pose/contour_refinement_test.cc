@@ -245,6 +245,82 @@ TEST(ContourRefinementTest, FrameOutlineIsTheSignedDistanceToTheOutline) {
 
 // The analytic Jacobian is the derivative of the residuals (bilinear distance field), checked by
 // central differences on every point whose differences stay within one bilinear cell.
+TEST(ContourRefinementTest, FrameOutlineIsTheTwoPassChamferTransform) {
+  // The signed distances equal a plain two-pass chamfer transform (steps 1 and sqrt(2)) computed
+  // row after row from the pixels next to the outline, value for value, and the outline points
+  // are those pixel sides, in row order: on random blobs with speckles, mask values other than 255,
+  // windows from a few pixels wide upwards, and the smallest margin.
+  std::mt19937 random(17);
+  constexpr float kDiagonal = static_cast<float>(std::numbers::sqrt2);
+  int compared = 0;
+  for (int round = 0; round < 60; ++round) {
+    const int width = 3 + static_cast<int>(random() % 200);
+    const int height = 3 + static_cast<int>(random() % 200);
+    cv::Mat mask = cv::Mat::zeros(height, width, CV_8UC1);
+    for (int b = 0; b < 1 + static_cast<int>(random() % 5); ++b) {
+      cv::ellipse(mask, cv::Point(random() % width, random() % height),
+                  cv::Size(1 + random() % (width / 2 + 1), 1 + random() % (height / 2 + 1)),
+                  random() % 180, 0, 360, cv::Scalar(1 + random() % 255), cv::FILLED);
+    }
+    for (int n = 0; n < static_cast<int>(random() % 40); ++n) {
+      mask.at<uint8_t>(random() % height, random() % width) = (random() % 2) * 200;
+    }
+    if (cv::countNonZero(mask) == 0) mask.at<uint8_t>(height / 2, width / 2) = 1;
+    const int margin = round % 3 == 0 ? 2 : 40;
+    const FrameOutline frame(mask, margin);
+    const cv::Rect w = frame.window();
+    const cv::Mat o = mask(w);
+    cv::Mat d(w.size(), CV_32FC1);
+    std::vector<Eigen::Vector2d> outline;
+    for (int y = 0; y < w.height; ++y) {
+      for (int x = 0; x < w.width; ++x) {
+        const bool in = o.at<uint8_t>(y, x) != 0;
+        const auto differs = [&](int u, int v) {
+          return u >= 0 && v >= 0 && u < w.width && v < w.height &&
+                 (o.at<uint8_t>(v, u) != 0) != in;
+        };
+        if (differs(x + 1, y)) outline.emplace_back(w.x + x + 0.5, w.y + y);
+        if (differs(x, y + 1)) outline.emplace_back(w.x + x, w.y + y + 0.5);
+        const bool edge =
+            differs(x + 1, y) || differs(x, y + 1) || differs(x - 1, y) || differs(x, y - 1);
+        d.at<float>(y, x) = edge ? 0.0f : 1e9f;
+      }
+    }
+    const auto relax = [&](int x, int y, int u, int v, float step) {
+      if (u >= 0 && v >= 0 && u < w.width && v < w.height) {
+        d.at<float>(y, x) = std::min(d.at<float>(y, x), d.at<float>(v, u) + step);
+      }
+    };
+    for (int y = 0; y < w.height; ++y) {
+      for (int x = 0; x < w.width; ++x) {
+        relax(x, y, x, y - 1, 1.0f);
+        relax(x, y, x - 1, y - 1, kDiagonal);
+        relax(x, y, x + 1, y - 1, kDiagonal);
+      }
+      for (int x = 1; x < w.width; ++x) relax(x, y, x - 1, y, 1.0f);
+    }
+    for (int y = w.height - 1; y >= 0; --y) {
+      for (int x = 0; x < w.width; ++x) {
+        relax(x, y, x, y + 1, 1.0f);
+        relax(x, y, x - 1, y + 1, kDiagonal);
+        relax(x, y, x + 1, y + 1, kDiagonal);
+      }
+      for (int x = w.width - 2; x >= 0; --x) relax(x, y, x + 1, y, 1.0f);
+    }
+    ASSERT_EQ(frame.outline_points(), outline) << "round " << round;
+    for (int y = 0; y < w.height; ++y) {
+      for (int x = 0; x < w.width; ++x) {
+        const float expected =
+            o.at<uint8_t>(y, x) != 0 ? -(d.at<float>(y, x) + 0.5f) : d.at<float>(y, x) + 0.5f;
+        ASSERT_EQ(frame.signed_distance().at<float>(y, x), expected)
+            << "round " << round << " pixel " << x << ", " << y;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 100000);
+}
+
 TEST(ContourRefinementTest, JacobianMatchesNumericDerivatives) {
   const TriangleMesh& mesh = Mesh("cow");
   const ContourModel model(mesh);
