@@ -121,6 +121,7 @@ Tracker::Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra
     equivalence_.emplace_back(model.symmetry);
     centres_.push_back(model.mesh.Centre());
   }
+  contours_.resize(database_.models.size());
 }
 
 Tracker::Tracker(const ViewDatabase& database, const PinholeCamera& camera)
@@ -268,7 +269,6 @@ void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
 
 const ContourModel& Tracker::Contour(int object) {
   SILPOSE_ASSERT(object >= 0 && static_cast<size_t>(object) < database_.models.size());
-  if (contours_.size() != database_.models.size()) contours_.resize(database_.models.size());
   std::unique_ptr<ContourModel>& contour = contours_[static_cast<size_t>(object)];
   if (!contour)
     contour = std::make_unique<ContourModel>(database_.models[static_cast<size_t>(object)].mesh);

@@ -339,6 +339,7 @@ class Tracker {
   double arbitration_ms_ = 0.0;
   // The outline of frame outline_frame_'s mask (Outline).
   std::optional<FrameOutline> outline_;
+  // Per object, made by Contour on first use.
   std::vector<std::unique_ptr<ContourModel>> contours_;
   /// The last reported refined pose, for the motion start (refine_from_motion).
   struct MotionPrior {
