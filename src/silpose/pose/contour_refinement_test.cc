@@ -257,13 +257,15 @@ TEST(ContourRefinementTest, FrameOutlineIsTheTwoPassChamferTransform) {
     const int width = 3 + static_cast<int>(random() % 200);
     const int height = 3 + static_cast<int>(random() % 200);
     cv::Mat mask = cv::Mat::zeros(height, width, CV_8UC1);
-    for (int b = 0; b < 1 + static_cast<int>(random() % 5); ++b) {
-      cv::ellipse(mask, cv::Point(random() % width, random() % height),
-                  cv::Size(1 + random() % (width / 2 + 1), 1 + random() % (height / 2 + 1)),
-                  random() % 180, 0, 360, cv::Scalar(1 + random() % 255), cv::FILLED);
+    // A number in [0, n).
+    auto below = [&](int n) { return static_cast<int>(random() % static_cast<uint32_t>(n)); };
+    for (int b = 0; b < 1 + below(5); ++b) {
+      cv::ellipse(mask, cv::Point(below(width), below(height)),
+                  cv::Size(1 + below(width / 2 + 1), 1 + below(height / 2 + 1)), below(180), 0, 360,
+                  cv::Scalar(1 + below(255)), cv::FILLED);
     }
-    for (int n = 0; n < static_cast<int>(random() % 40); ++n) {
-      mask.at<uint8_t>(random() % height, random() % width) = (random() % 2) * 200;
+    for (int n = 0; n < below(40); ++n) {
+      mask.at<uint8_t>(below(height), below(width)) = static_cast<uint8_t>(below(2) * 200);
     }
     if (cv::countNonZero(mask) == 0) mask.at<uint8_t>(height / 2, width / 2) = 1;
     const int margin = round % 3 == 0 ? 2 : 40;

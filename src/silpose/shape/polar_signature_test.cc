@@ -391,6 +391,73 @@ TEST(PolarSignature, AreaAndCentreAreThePixelMoments) {
   EXPECT_NEAR(result.signature.centroid_px.y(), moments.m01 / moments.m00, 1e-9);
 }
 
+TEST(PolarSignature, AreaAndCentreAreThoseOfTheFilledOutline) {
+  // The area and centre are those of the chosen component with its holes filled. A mask with a
+  // single component and no hole is summed as it is (no filled copy is drawn): on random masks of
+  // thin spurs and diagonal steps, at the borders too, both ways must give the pixels the filled
+  // outline covers.
+  cv::RNG rng(29);
+  int single = 0;
+  int several = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    cv::Mat mask(rng.uniform(20, 90), rng.uniform(20, 90), CV_8UC1, cv::Scalar(0));
+    const int kind = trial % 3;
+    auto random_point = [&] {
+      return cv::Point(rng.uniform(0, mask.cols), rng.uniform(0, mask.rows));
+    };
+    if (kind == 0) {  // a blob with spurs of one to three pixels' width, diagonal steps included
+      const cv::Point centre = random_point();
+      cv::ellipse(mask, centre, {rng.uniform(4, 25), rng.uniform(4, 25)}, rng.uniform(0, 180), 0,
+                  360, cv::Scalar(255), cv::FILLED);
+      for (int i = 0; i < 5; ++i) {
+        cv::line(mask, centre, random_point(), cv::Scalar(255), rng.uniform(1, 4));
+      }
+    } else if (kind == 1) {  // a path of thin segments, which may close loops (holes)
+      cv::Point from = random_point();
+      for (int i = 0; i < 8; ++i) {
+        const cv::Point to = random_point();
+        cv::line(mask, from, to, cv::Scalar(255), rng.uniform(1, 4));
+        from = to;
+      }
+    } else {  // noise: many components with holes
+      for (auto it = mask.begin<uint8_t>(); it != mask.end<uint8_t>(); ++it) {
+        *it = rng.uniform(0, 100) < 60 ? 255 : 0;
+      }
+    }
+    const SignatureResult result = ExtractSignature(mask);
+    if (!result.ok()) continue;
+    std::vector<std::vector<cv::Point>> contours;
+    std::vector<cv::Vec4i> hierarchy;
+    cv::findContours(mask.clone(), contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+    (contours.size() == 1 ? single : several) += 1;
+    // The chosen component's contour is the outline the result reports.
+    int chosen = -1;
+    for (int i = 0; i < static_cast<int>(contours.size()); ++i) {
+      const auto& contour = contours[static_cast<size_t>(i)];
+      if (contour.size() != result.outline_px.size()) continue;
+      if (std::equal(contour.begin(), contour.end(), result.outline_px.begin(),
+                     [](const cv::Point& p, const Eigen::Vector2d& q) {
+                       return p.x == q.x() && p.y == q.y();
+                     })) {
+        chosen = i;
+      }
+    }
+    ASSERT_GE(chosen, 0) << "trial " << trial;
+    cv::Mat filled(mask.size(), CV_8UC1, cv::Scalar(0));
+    cv::drawContours(filled, contours, chosen, cv::Scalar(255), cv::FILLED, cv::LINE_8);
+    const cv::Moments moments = cv::moments(filled, /*binaryImage=*/true);
+    EXPECT_EQ(result.signature.area_px, moments.m00) << "trial " << trial;
+    EXPECT_NEAR(result.signature.centroid_px.x(), moments.m10 / moments.m00, 1e-9)
+        << "trial " << trial;
+    EXPECT_NEAR(result.signature.centroid_px.y(), moments.m01 / moments.m00, 1e-9)
+        << "trial " << trial;
+  }
+  // Both ways were taken often.
+  EXPECT_GE(single, 100);
+  EXPECT_GE(several, 100);
+  std::cout << single << " masks of one component, " << several << " of several or with holes\n";
+}
+
 TEST(PolarSignature, PixelAreaCentroidIsOpenCVsMomentsExactly) {
   cv::RNG rng(11);
   for (int trial = 0; trial < 50; ++trial) {
