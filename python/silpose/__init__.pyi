@@ -143,6 +143,7 @@ class TrackerOptions:
     fit_arbitration_iou_gain: float
     fit_arbitration_score_gap: float
     refine_from_motion: bool
+    polish_steps: int
     mirror_twin_check: bool
     canonical_poses: bool
     seed: int

@@ -864,6 +864,10 @@ void BindTrack(py::module_& m) {
                      "Filter mode: also refine from the previous frame's refined pose, turned "
                      "on by the last frame-to-frame rotation, and keep whichever of the two "
                      "refined poses fits the frame's outline better (on by default).")
+      .def_readwrite("polish_steps", &TrackerOptions::polish_steps,
+                     "Filter mode: the pose starts from the best-scoring view near the filter's "
+                     "estimate, found by at most this many steps to a better neighbour (2; 0 = "
+                     "the estimate's view as it is).")
       .def_readwrite("mirror_twin_check", &TrackerOptions::mirror_twin_check,
                      "For an object with a mirror plane, also fit the mirror twin of the matched "
                      "pose (the pose casting the same outline from far away) and report it when "

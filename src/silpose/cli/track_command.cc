@@ -734,6 +734,10 @@ void AddTrackCommand(CLI::App& app) {
   command->add_flag("!--no-motion-start", arguments->tracker.refine_from_motion,
                     "Refine every frame's pose from its database view alone, not also from the "
                     "previous frame's refined pose carried on by the motion (docs/tracking.md)");
+  command->add_flag_callback(
+      "--no-view-polish", [arguments] { arguments->tracker.polish_steps = 0; },
+      "Start the pose from the filter's estimated view as it is, not from the best-scoring view "
+      "next to it (docs/tracking.md)");
   command->add_flag("!--no-twin-check", arguments->tracker.mirror_twin_check,
                     "Report the matched pose of an object with a mirror plane without also "
                     "fitting its mirror twin, the pose that casts the same outline from far away "

@@ -60,6 +60,10 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "fit_arbitration_score_gap must be in [0, 2] (0 = off)";
     return false;
   }
+  if (!(polish_steps >= 0 && polish_steps <= 10)) {
+    if (error != nullptr) *error = "polish_steps must be in [0, 10] (0 = off)";
+    return false;
+  }
   if (!state.Check(&problem)) {
     if (error != nullptr) *error = "state: " + problem;
     return false;
@@ -427,7 +431,11 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     return false;
   }
   // The frame is the twin of the reported hypothesis: the filter's mode moves there too.
-  const int old_view = *view;
+  // The filter's mode is centred on its estimate, which the view polish may have left.
+  const int old_view = tracked->estimate && tracked->estimate->object == result.object &&
+                               tracked->estimate->view >= 0
+                           ? tracked->estimate->view
+                           : *view;
   const Eigen::Vector3d n = mirror.normal.normalized();
   if (filter_ && feed_filter && old_view >= 0) {
     filter_->ReflectMode(result.object, old_view,
@@ -475,6 +483,50 @@ bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, Mirror
     found = true;
   }
   return found;
+}
+
+void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, int* view,
+                         double* roll_deg, double* score) {
+  if (!query.has_variance || !spectra_->Usable(object, *view, shell)) return;
+  constexpr double kMaxRollChangeDeg = 15.0;
+  const int length = spectra_->signature_length();
+  const double start_roll_deg = *roll_deg;
+  const auto roll_apart_deg = [](double a, double b) {
+    return std::abs(std::remainder(a - b, 360.0));
+  };
+  // The estimate's own view, correlated like its neighbours (its particle's score is a peak near
+  // the predicted roll, from the same correlation).
+  const CorrelationPeak own = matcher_->Score(query, object, *view, shell);
+  float best_score = static_cast<float>(*score);
+  if (roll_apart_deg(own.RollDeg(length), start_roll_deg) <= kMaxRollChangeDeg)
+    best_score = std::max(best_score, own.score);
+  // Within the filter's mode (modulo the object's symmetry), as the estimate's area.
+  const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
+  const Eigen::Vector3d estimate_dir = database_.sphere.directions[static_cast<size_t>(*view)];
+  int best_view = *view;
+  double best_roll_deg = *roll_deg;
+  if (best_score > static_cast<float>(*score)) best_roll_deg = own.RollDeg(length);
+  for (int step = 0; step < options_.polish_steps; ++step) {
+    const int centre = best_view;
+    for (const uint32_t n : database_.sphere.Neighbours(centre)) {
+      const auto v = static_cast<int>(n);
+      if (!spectra_->Usable(object, v, shell) ||
+          same.AngleDeg(database_.sphere.directions[n], estimate_dir) >
+              options_.filter.mode_radius_deg)
+        continue;
+      const CorrelationPeak peak = matcher_->Score(query, object, v, shell);
+      const double roll = peak.RollDeg(length);
+      if (peak.score > best_score && roll_apart_deg(roll, start_roll_deg) <= kMaxRollChangeDeg) {
+        best_score = peak.score;
+        best_view = v;
+        best_roll_deg = roll;
+      }
+    }
+    if (best_view == centre) break;
+  }
+  *view = best_view;
+  *roll_deg = best_roll_deg;
+  *score = static_cast<double>(best_score);
 }
 
 double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) {
@@ -920,6 +972,10 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     result.score = static_cast<double>(estimate.score);
     if (estimate.object >= 0)
       result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
+    if (options_.polish_steps > 0 && usable && roll_known && estimate.object >= 0 && view >= 0) {
+      matcher_->correlator().Transform(radii, &polish_query_);
+      PolishView(polish_query_, estimate.object, shell, &view, &result.roll_deg, &result.score);
+    }
   } else if (!filter_ && usable) {  // brute force
     const std::vector<MatchCandidate> top =
         matcher_->Match(radii, {.top_k = 1, .apparent_radius = apparent_radius});

@@ -106,6 +106,16 @@ struct TrackerOptions {
   /// one nearest the motion (NearestEquivalentRotation). Off: every frame is refined from its
   /// grid pose alone, as in brute-force mode.
   bool refine_from_motion = true;
+  /// View polish (filter mode; docs/tracking.md): the pose starts from the best-scoring view near
+  /// the filter's estimate instead of the estimate's own. The filter decides the object and the
+  /// area of the view sphere; within it, its particles cover only some views, and its estimate is
+  /// the heaviest particle there, which need not be the view that fits this frame best. The
+  /// estimate's view and its neighbours are correlated exactly with the frame (about 7
+  /// correlations of a few microseconds), and the search moves to the best of them while that one
+  /// scores higher, at most polish_steps times, never farther than the filter's mode_radius_deg
+  /// from the estimate (modulo the object's symmetry); a neighbour counts only when its best roll
+  /// lies within 15 degrees of the estimate's. 0: the estimate's view, as the filter reports it.
+  int polish_steps = 2;
   /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
   /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
   /// database's views cannot tell apart from far away) is refined against the frame's outline
@@ -319,6 +329,11 @@ class Tracker {
   /// Per object: its mesh's Centre() (a pass over the vertices), computed once.
   std::vector<Eigen::Vector3d> centres_;
   SignatureSpectrum twin_query_;
+  /// The best-scoring view near the filter's estimate (TrackerOptions::polish_steps): moves
+  /// `view`, `roll_deg` and `score` there. `query` is the frame's spectrum.
+  void PolishView(const SignatureSpectrum& query, int object, int shell, int* view,
+                  double* roll_deg, double* score);
+  SignatureSpectrum polish_query_;
   /// Per model: its symmetry transforms, coarsely sampled (SymmetryTransformsOf).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;
   std::vector<float> correlation_;
