@@ -86,8 +86,8 @@ struct FrameResult {
   double time_ms = std::numeric_limits<double>::quiet_NaN();
   /// Where that time went, milliseconds (NaN = the stage did not run): segmentation of the frame
   /// into a silhouette mask; description (outline, polar signature, on-axis mapping); matching
-  /// (the particle filter's step, or the brute-force search); the 6-DOF pose from the matched
-  /// view; its contour refinement. Decoding the frame is in none of them.
+  /// (the particle filter's step and the view polish, or the brute-force search); the 6-DOF pose
+  /// from the matched view; its contour refinement. Decoding the frame is in none of them.
   double time_segment_ms = std::numeric_limits<double>::quiet_NaN();
   double time_describe_ms = std::numeric_limits<double>::quiet_NaN();
   double time_match_ms = std::numeric_limits<double>::quiet_NaN();

@@ -489,6 +489,7 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, 
                          double* roll_deg, double* score) {
   if (!query.has_variance || !spectra_->Usable(object, *view, shell)) return;
   constexpr double kMaxRollChangeDeg = 15.0;
+  constexpr float kMinGain = 0.3f;
   const int length = spectra_->signature_length();
   const double start_roll_deg = *roll_deg;
   const auto roll_apart_deg = [](double a, double b) {
@@ -516,7 +517,10 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, 
         continue;
       const CorrelationPeak peak = matcher_->Score(query, object, v, shell);
       const double roll = peak.RollDeg(length);
-      if (peak.score > best_score && roll_apart_deg(roll, start_roll_deg) <= kMaxRollChangeDeg) {
+      // Better by a share of the remaining mismatch 1 - score, whose noise grows with it (a ragged
+      // or small silhouette): not a neighbour that scores higher by the mask's noise alone.
+      if (1.0f - peak.score < (1.0f - best_score) * (1.0f - kMinGain) &&
+          roll_apart_deg(roll, start_roll_deg) <= kMaxRollChangeDeg) {
         best_score = peak.score;
         best_view = v;
         best_roll_deg = roll;
@@ -975,6 +979,8 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     if (options_.polish_steps > 0 && usable && roll_known && estimate.object >= 0 && view >= 0) {
       matcher_->correlator().Transform(radii, &polish_query_);
       PolishView(polish_query_, estimate.object, shell, &view, &result.roll_deg, &result.score);
+      // Part of choosing the view: the match stage.
+      result.time_match_ms += lap();
     }
   } else if (!filter_ && usable) {  // brute force
     const std::vector<MatchCandidate> top =

@@ -112,9 +112,11 @@ struct TrackerOptions {
   /// the heaviest particle there, which need not be the view that fits this frame best. The
   /// estimate's view and its neighbours are correlated exactly with the frame (about 7
   /// correlations of a few microseconds), and the search moves to the best of them while that one
-  /// scores higher, at most polish_steps times, never farther than the filter's mode_radius_deg
-  /// from the estimate (modulo the object's symmetry); a neighbour counts only when its best roll
-  /// lies within 15 degrees of the estimate's. 0: the estimate's view, as the filter reports it.
+  /// scores clearly higher, at most polish_steps times, never farther than the filter's
+  /// mode_radius_deg from the estimate (modulo the object's symmetry). A neighbour counts only
+  /// when it removes at least 30 % of the remaining mismatch 1 - score (whose noise grows with it
+  /// on ragged or small silhouettes) and its best roll lies within 15 degrees of the estimate's.
+  /// 0: the estimate's view, as the filter reports it.
   int polish_steps = 2;
   /// Mirror-twin check (refinement on; docs/tracking.md): for an object with a mirror plane,
   /// the pose that shows the same outline to a far-away camera (the mirror twin, which the
