@@ -132,6 +132,11 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
     # The motion start: on by default, and can be switched off.
     assert silpose.TrackerOptions().refine_from_motion is True
     assert silpose.TrackerOptions(refine_from_motion=False).refine_from_motion is False
+    # The view polish: two steps by default, 0 = off, out of range refused.
+    assert silpose.TrackerOptions().polish_steps == 2
+    silpose.TrackerOptions(polish_steps=0).check()
+    with pytest.raises(silpose.Error, match="polish_steps"):
+        silpose.TrackerOptions(polish_steps=-1).check()
     # The mirror-twin check: on by default, and can be switched off.
     assert silpose.TrackerOptions().mirror_twin_check is True
     assert silpose.TrackerOptions(mirror_twin_check=False).mirror_twin_check is False

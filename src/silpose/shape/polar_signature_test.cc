@@ -326,7 +326,7 @@ TEST(PolarSignature, NonBinaryMasksCountEveryNonZeroPixel) {
 }
 
 TEST(PolarSignature, NonZeroBoundingBoxIsOpenCVsOnEveryLayout) {
-  // Widths that are and are not multiples of the eight bytes scanned at a time, objects touching
+  // Widths that are and are not multiples of the 32-byte blocks scanned at once, objects touching
   // every edge, single pixels, views into a larger image (rows not contiguous).
   cv::RNG rng(7);
   for (int trial = 0; trial < 300; ++trial) {

@@ -485,9 +485,9 @@ bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, Mirror
   return found;
 }
 
-void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, int* view,
-                         double* roll_deg, double* score) {
-  if (!query.has_variance || !spectra_->Usable(object, *view, shell)) return;
+void Tracker::PolishView(const SignatureSpectrum& query, int object, double apparent_radius,
+                         int* view, int* shell, double* roll_deg, double* score) {
+  if (!query.has_variance || !spectra_->Usable(object, *view, *shell)) return;
   constexpr double kMaxRollChangeDeg = 15.0;
   constexpr float kMinGain = 0.3f;
   const int length = spectra_->signature_length();
@@ -497,7 +497,7 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, 
   };
   // The estimate's own view, correlated like its neighbours (its particle's score is a peak near
   // the predicted roll, from the same correlation).
-  const CorrelationPeak own = matcher_->Score(query, object, *view, shell);
+  const CorrelationPeak own = matcher_->Score(query, object, *view, *shell);
   float best_score = static_cast<float>(*score);
   if (roll_apart_deg(own.RollDeg(length), start_roll_deg) <= kMaxRollChangeDeg)
     best_score = std::max(best_score, own.score);
@@ -505,17 +505,21 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, 
   const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
   const Eigen::Vector3d estimate_dir = database_.sphere.directions[static_cast<size_t>(*view)];
   int best_view = *view;
+  int best_shell = *shell;
   double best_roll_deg = *roll_deg;
   if (best_score > static_cast<float>(*score)) best_roll_deg = own.RollDeg(length);
   for (int step = 0; step < options_.polish_steps; ++step) {
     const int centre = best_view;
     for (const uint32_t n : database_.sphere.Neighbours(centre)) {
       const auto v = static_cast<int>(n);
-      if (!spectra_->Usable(object, v, shell) ||
+      // Each view in the distance shell the silhouette's size picks for it, as the filter's.
+      const int v_shell =
+          apparent_radius > 0.0 ? database_.ChooseShell(object, v, apparent_radius) : *shell;
+      if (!spectra_->Usable(object, v, v_shell) ||
           same.AngleDeg(database_.sphere.directions[n], estimate_dir) >
               options_.filter.mode_radius_deg)
         continue;
-      const CorrelationPeak peak = matcher_->Score(query, object, v, shell);
+      const CorrelationPeak peak = matcher_->Score(query, object, v, v_shell);
       const double roll = peak.RollDeg(length);
       // Better by a share of the remaining mismatch 1 - score, whose noise grows with it (a ragged
       // or small silhouette): not a neighbour that scores higher by the mask's noise alone.
@@ -523,12 +527,14 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, int shell, 
           roll_apart_deg(roll, start_roll_deg) <= kMaxRollChangeDeg) {
         best_score = peak.score;
         best_view = v;
+        best_shell = v_shell;
         best_roll_deg = roll;
       }
     }
     if (best_view == centre) break;
   }
   *view = best_view;
+  *shell = best_shell;
   *roll_deg = best_roll_deg;
   *score = static_cast<double>(best_score);
 }
@@ -696,8 +702,13 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
   if (previous_area_px_ > 0.0 && signature.area_px > 0.0)
     features.area_change = std::abs(std::log(signature.area_px / previous_area_px_));
   previous_area_px_ = signature.area_px;
-  const double runner_up_score =
-      estimate != nullptr ? static_cast<double>(estimate->runner_up.score) : -1.0;
+  // The competing-mode rule compares particle scores: the runner-up's with the estimate's, which
+  // the view polish may have raised in result.score (an exact peak of a better view), so the
+  // runner-up's is shifted by that rise.
+  const double runner_up_score = estimate != nullptr
+                                     ? static_cast<double>(estimate->runner_up.score) +
+                                           (result.score - static_cast<double>(estimate->score))
+                                     : -1.0;
   const TrackStateEstimator::Output out = state_->Measured(&features, runner_up_score);
   tracked->confidence_features = features;
   result.confidence = out.confidence;
@@ -863,10 +874,12 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
         as_twin ? -features.twin_score_gap : -std::abs(features.twin_score_gap);
   }
   // The pose gap: the frame's outline scored the former pose at before.score, which the new one
-  // cannot beat by more than their difference.
+  // cannot beat by more than their difference; both as particle scores (the view polish may
+  // have raised the reported score above the estimate's).
   if (std::isfinite(features.pose_score_gap)) {
-    features.pose_score_gap =
-        std::min(features.pose_score_gap, static_cast<double>(state.score) - before.score);
+    features.pose_score_gap = std::min(
+        features.pose_score_gap, static_cast<double>(state.score) -
+                                     std::min(before.score, static_cast<double>(estimate.score)));
   }
   revised.confidence_features = features;
   result.confidence = state_->options().model.Evaluate(features);
@@ -976,9 +989,16 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     result.score = static_cast<double>(estimate.score);
     if (estimate.object >= 0)
       result.probability = estimate.object_probability[static_cast<size_t>(estimate.object)];
-    if (options_.polish_steps > 0 && usable && roll_known && estimate.object >= 0 && view >= 0) {
+    // Not when the fit arbitration has posed the estimate already: it chose between refined
+    // hypotheses, and its pose is reported as it is.
+    const bool posed_by_arbitration =
+        std::any_of(posed_.begin(), posed_.end(),
+                    [&](const Posed& p) { return p.object == estimate.object && p.view == view; });
+    if (options_.polish_steps > 0 && usable && roll_known && estimate.object >= 0 && view >= 0 &&
+        !posed_by_arbitration) {
       matcher_->correlator().Transform(radii, &polish_query_);
-      PolishView(polish_query_, estimate.object, shell, &view, &result.roll_deg, &result.score);
+      PolishView(polish_query_, estimate.object, apparent_radius, &view, &shell, &result.roll_deg,
+                 &result.score);
       // Part of choosing the view: the match stage.
       result.time_match_ms += lap();
     }

@@ -110,7 +110,7 @@ struct TrackerOptions {
   /// the filter's estimate instead of the estimate's own. The filter decides the object and the
   /// area of the view sphere; within it, its particles cover only some views, and its estimate is
   /// the heaviest particle there, which need not be the view that fits this frame best. The
-  /// estimate's view and its neighbours are correlated exactly with the frame (about 7
+  /// estimate's view and its neighbours are correlated exactly with the frame (7 to 13
   /// correlations of a few microseconds), and the search moves to the best of them while that one
   /// scores clearly higher, at most polish_steps times, never farther than the filter's
   /// mode_radius_deg from the estimate (modulo the object's symmetry). A neighbour counts only
@@ -332,9 +332,10 @@ class Tracker {
   std::vector<Eigen::Vector3d> centres_;
   SignatureSpectrum twin_query_;
   /// The best-scoring view near the filter's estimate (TrackerOptions::polish_steps): moves
-  /// `view`, `roll_deg` and `score` there. `query` is the frame's spectrum.
-  void PolishView(const SignatureSpectrum& query, int object, int shell, int* view,
-                  double* roll_deg, double* score);
+  /// `view`, `shell`, `roll_deg` and `score` there, each view in the shell the silhouette's
+  /// apparent radius picks for it (0: the estimate's shell). `query` is the frame's spectrum.
+  void PolishView(const SignatureSpectrum& query, int object, double apparent_radius, int* view,
+                  int* shell, double* roll_deg, double* score);
   SignatureSpectrum polish_query_;
   /// Per model: its symmetry transforms, coarsely sampled (SymmetryTransformsOf).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;

@@ -537,19 +537,19 @@ TEST(Tracker, ViewPolishStartsThePoseFromTheBestScoringViewNearTheEstimate) {
     for (const uint32_t middle : sphere.Neighbours(start))
       within_two = within_two || near(static_cast<int>(middle), end);
     EXPECT_TRUE(within_two) << "frame " << f << ": view " << start << " -> " << end;
-    EXPECT_GT(b.result.score, a.result.score) << "frame " << f;
-    // Its roll stays near the estimate's (within 15 degrees).
+    // Clearly better: at least 30 % of the remaining mismatch 1 - score removed.
+    EXPECT_LT(1.0 - b.result.score, 0.7 * (1.0 - a.result.score)) << "frame " << f;
+    // Within the filter's mode (these models have no rotational symmetry) and near its roll.
+    const double apart_deg = std::acos(std::clamp(sphere.directions[static_cast<size_t>(start)].dot(
+                                                      sphere.directions[static_cast<size_t>(end)]),
+                                                  -1.0, 1.0)) *
+                             180.0 / std::numbers::pi;
+    EXPECT_LE(apart_deg, polished.filter.mode_radius_deg) << "frame " << f;
     EXPECT_LE(std::abs(std::remainder(b.result.roll_deg - a.result.roll_deg, 360.0)), 15.0);
   }
   std::cout << moved << " of " << compared << " frames start from a better neighbour\n";
   EXPECT_GT(compared, 70);
   EXPECT_GT(moved, 0);
-  // Brute force reports the database's best view: the option changes nothing there.
-  TrackerOptions brute = polished;
-  brute.brute_force = true;
-  TrackerOptions brute_plain = plain;
-  brute_plain.brute_force = true;
-  EXPECT_EQ(TrackSequence(brute).estimates, TrackSequence(brute_plain).estimates);
 }
 
 TEST(Tracker, FitArbitrationReportsTheHypothesisWhoseOutlineFitsTheFrameBetter) {
