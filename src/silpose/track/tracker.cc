@@ -470,11 +470,12 @@ bool Tracker::ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, Mirror
     const int twin_view = database_.sphere.NearestView(other);
     if (twin_view < 0 || !spectra_->Usable(result.object, twin_view, shell)) continue;
     if (!found) {
-      if (!twin_query_.has_variance || !spectra_->Usable(result.object, view, shell)) return false;
+      if (!frame_spectrum_.has_variance || !spectra_->Usable(result.object, view, shell))
+        return false;
       // The reported view scored the same way (best over all rolls) as its twins.
-      twin->reported_score = matcher_->Score(twin_query_, result.object, view, shell).score;
+      twin->reported_score = matcher_->Score(frame_spectrum_, result.object, view, shell).score;
     }
-    const CorrelationPeak peak = matcher_->Score(twin_query_, result.object, twin_view, shell);
+    const CorrelationPeak peak = matcher_->Score(frame_spectrum_, result.object, twin_view, shell);
     if (!found || peak.score > twin->score) {
       twin->view = twin_view;
       twin->score = peak.score;
@@ -508,10 +509,14 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, double appa
   int best_shell = *shell;
   double best_roll_deg = *roll_deg;
   if (best_score > static_cast<float>(*score)) best_roll_deg = own.RollDeg(length);
+  // Views already looked at: one that did not beat the best then cannot beat it now.
+  polish_seen_.assign(1, *view);
   for (int step = 0; step < options_.polish_steps; ++step) {
     const int centre = best_view;
     for (const uint32_t n : database_.sphere.Neighbours(centre)) {
       const auto v = static_cast<int>(n);
+      if (std::find(polish_seen_.begin(), polish_seen_.end(), v) != polish_seen_.end()) continue;
+      polish_seen_.push_back(v);
       // Each view in the distance shell the silhouette's size picks for it, as the filter's.
       const int v_shell =
           apparent_radius > 0.0 ? database_.ChooseShell(object, v, apparent_radius) : *shell;
@@ -547,13 +552,13 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   // filter's proposal ranks views: the low-harmonic part of the spectral bound).
   constexpr size_t kFarCandidates = 8;
   constexpr size_t kRankingHarmonics = 32;
-  if (!twin_query_.has_variance || !spectra_->Usable(object, view, shell)) return std::nan("");
+  if (!frame_spectrum_.has_variance || !spectra_->Usable(object, view, shell)) return std::nan("");
   const int length = spectra_->signature_length();
   const std::vector<Eigen::Vector3d>& directions = database_.sphere.directions;
   const ViewEquivalence& same = equivalence_[static_cast<size_t>(object)];
   const Eigen::Vector3d& centre = directions[static_cast<size_t>(view)];
   const auto score = [&](int v) {
-    return spectra_->Usable(object, v, shell) ? matcher_->Score(twin_query_, object, v, shell)
+    return spectra_->Usable(object, v, shell) ? matcher_->Score(frame_spectrum_, object, v, shell)
                                               : CorrelationPeak{-1.0f, 0.0f};
   };
   // The best score near the reported pose: its view and the neighbours the grid may place better.
@@ -565,12 +570,12 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   }
   // The best far view: every view farther than the radius (modulo symmetry) ranked by the bound
   // over the first harmonics, the best ranked correlated exactly.
-  const size_t half = twin_query_.coefficients.size();
+  const size_t half = frame_spectrum_.coefficients.size();
   const size_t harmonics = std::min(kRankingHarmonics, half);
   std::array<float, kRankingHarmonics> query{};
   for (size_t k = 0; k < harmonics; ++k) {
     const float weight = (k == 0 || k == half - 1) ? 1.0f : 2.0f;
-    query[k] = weight * std::abs(twin_query_.coefficients[k]);
+    query[k] = weight * std::abs(frame_spectrum_.coefficients[k]);
   }
   ranked_.clear();
   for (int v = 0; v < database_.sphere.num_views(); ++v) {
@@ -599,7 +604,8 @@ double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) 
   const std::vector<Rigid3>& transforms = SymmetryTransformsOf(object);
   const Eigen::Matrix3d own_rotation = CameraFromObjectRotation(centre, own.RollDeg(length));
   correlation_.resize(static_cast<size_t>(length));
-  matcher_->correlator().Correlate(twin_query_, spectra_->Get(object, view, shell), correlation_);
+  matcher_->correlator().Correlate(frame_spectrum_, spectra_->Get(object, view, shell),
+                                   correlation_);
   maxima_.clear();
   for (int i = 0; i < length; ++i) {
     const float e = correlation_[static_cast<size_t>(i)];
@@ -687,7 +693,6 @@ void Tracker::Assess(TrackedFrame* tracked, bool usable, std::span<const float> 
     features.iou = fit_iou;
     features.outline_rms = fit_rms_px / signature.mean_radius_px;
   }
-  if (usable && !radii.empty()) matcher_->correlator().Transform(radii, &twin_query_);
   MirrorTwin twin;
   const bool has_twin = usable && !radii.empty() && ScoreMirrorTwin(view, shell, tracked, &twin);
   OtherPose other;
@@ -956,6 +961,8 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
+  // The frame's spectrum, once: the view polish and Assess's checks correlate it with views.
+  if (usable && !radii.empty()) matcher_->correlator().Transform(radii, &frame_spectrum_);
   if (tracked.segmentation.ok()) result.time_describe_ms = lap();
 
   int view = -1;
@@ -996,8 +1003,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
                     [&](const Posed& p) { return p.object == estimate.object && p.view == view; });
     if (options_.polish_steps > 0 && usable && roll_known && estimate.object >= 0 && view >= 0 &&
         !posed_by_arbitration) {
-      matcher_->correlator().Transform(radii, &polish_query_);
-      PolishView(polish_query_, estimate.object, apparent_radius, &view, &shell, &result.roll_deg,
+      PolishView(frame_spectrum_, estimate.object, apparent_radius, &view, &shell, &result.roll_deg,
                  &result.score);
       // Part of choosing the view: the match stage.
       result.time_match_ms += lap();

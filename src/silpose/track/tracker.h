@@ -110,7 +110,7 @@ struct TrackerOptions {
   /// the filter's estimate instead of the estimate's own. The filter decides the object and the
   /// area of the view sphere; within it, its particles cover only some views, and its estimate is
   /// the heaviest particle there, which need not be the view that fits this frame best. The
-  /// estimate's view and its neighbours are correlated exactly with the frame (7 to 13
+  /// estimate's view and its neighbours are correlated exactly with the frame (7 to 10
   /// correlations of a few microseconds), and the search moves to the best of them while that one
   /// scores clearly higher, at most polish_steps times, never farther than the filter's
   /// mode_radius_deg from the estimate (modulo the object's symmetry). A neighbour counts only
@@ -306,14 +306,14 @@ class Tracker {
   /// The best-scoring mirror twin of the reported database view `view` farther than the filter's
   /// mode radius (modulo rotational symmetry); false if the object has no mirror plane, no such
   /// twin, or the frame's signature is flat.
-  /// twin_query_ must hold the frame's spectrum.
+  /// frame_spectrum_ must hold the frame's spectrum.
   bool ScoreMirrorTwin(int view, int shell, TrackedFrame* tracked, MirrorTwin* twin);
   /// ConfidenceFeatures::pose_score_gap of the reported database view `view` (shell `shell`) of
-  /// `object`, from the frame's spectrum in twin_query_: the best score (any roll) of the view and
-  /// its neighbours within the filter's mode radius, minus the best of the other poses looked at:
-  /// the 8 views farther than that radius (modulo symmetry) ranked best by the low-harmonic bound,
-  /// and the local maxima of the view's own correlation over the roll whose rotation is farther.
-  /// The best of those poses goes to `other` (view -1 when there is none).
+  /// `object`, from the frame's spectrum in frame_spectrum_: the best score (any roll) of the view
+  /// and its neighbours within the filter's mode radius, minus the best of the other poses looked
+  /// at: the 8 views farther than that radius (modulo symmetry) ranked best by the low-harmonic
+  /// bound, and the local maxima of the view's own correlation over the roll whose rotation is
+  /// farther. The best of those poses goes to `other` (view -1 when there is none).
   struct OtherPose {
     int view = -1;
     double roll_deg = 0.0;
@@ -330,13 +330,15 @@ class Tracker {
   std::vector<ViewEquivalence> equivalence_;
   /// Per object: its mesh's Centre() (a pass over the vertices), computed once.
   std::vector<Eigen::Vector3d> centres_;
-  SignatureSpectrum twin_query_;
+  /// The spectrum of the frame being processed (its on-axis signature when it has one), made once
+  /// per frame with a usable silhouette, for the view polish and the checks of Assess.
+  SignatureSpectrum frame_spectrum_;
   /// The best-scoring view near the filter's estimate (TrackerOptions::polish_steps): moves
   /// `view`, `shell`, `roll_deg` and `score` there, each view in the shell the silhouette's
   /// apparent radius picks for it (0: the estimate's shell). `query` is the frame's spectrum.
   void PolishView(const SignatureSpectrum& query, int object, double apparent_radius, int* view,
                   int* shell, double* roll_deg, double* score);
-  SignatureSpectrum polish_query_;
+  std::vector<int> polish_seen_;
   /// Per model: its symmetry transforms, coarsely sampled (SymmetryTransformsOf).
   std::vector<std::vector<Rigid3>> pose_gap_transforms_;
   std::vector<float> correlation_;
