@@ -86,6 +86,10 @@ std::vector<std::filesystem::path> MeshFilesIn(const std::filesystem::path& dire
 /// The meshes an eval command's --models names: every mesh in each folder, and each file. Throws
 /// silpose::Error naming an item that is neither, or if no mesh is found.
 std::vector<std::filesystem::path> MeshPathsFromModelsOption(const std::vector<std::string>& items);
+/// The items joined by `separator`, for tables and messages.
+std::string Joined(const std::vector<std::string>& items, const char* separator = ", ");
+/// `value` printed with the printf `format`, or "-" if it is not finite (a table cell).
+std::string Number(double value, const char* format = "%.2f");
 /// Parses "X,Y,Z" into three finite numbers; throws silpose::Error naming `what` otherwise.
 std::vector<double> ParseTriple(const std::string& text, const std::string& what);
 /// Human-readable size ("12.3 MB").

@@ -174,12 +174,6 @@ std::vector<int> ParseCounts(const std::string& text) {
   return counts;
 }
 
-std::string Joined(const std::vector<std::string>& items) {
-  std::string text;
-  for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
-  return text;
-}
-
 void RunTrackingEval(const TrackingArguments& arguments) {
   std::vector<std::filesystem::path> paths(arguments.models.begin(), arguments.models.end());
   TrackingExperimentOptions options;

@@ -39,25 +39,11 @@ struct EvalConfidenceArguments {
        evaluate_given = false;
 };
 
-std::string Joined(const std::vector<std::string>& items) {
-  std::string text;
-  for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
-  return text;
-}
-
-std::string Percent(double value) {
-  if (!std::isfinite(value)) return "-";
-  char text[32];
-  std::snprintf(text, sizeof text, "%.2f", value);
-  return text;
-}
-
 void PrintMetrics(const char* label, const ConfidenceMetrics& m) {
   std::printf("%-22s %6d %7d %7s %8d %9s %9s %7d %9s\n", label, m.frames, m.correct,
-              std::isfinite(m.auc) ? Percent(100.0 * m.auc).c_str() : "-", m.tracking,
-              Percent(m.WrongTrackingPercent()).c_str(),
-              Percent(m.CorrectTrackingPercent()).c_str(), m.unknown_frames,
-              Percent(m.UnknownReportedPercent()).c_str());
+              std::isfinite(m.auc) ? Number(100.0 * m.auc).c_str() : "-", m.tracking,
+              Number(m.WrongTrackingPercent()).c_str(), Number(m.CorrectTrackingPercent()).c_str(),
+              m.unknown_frames, Number(m.UnknownReportedPercent()).c_str());
 }
 
 void WriteSummary(const std::filesystem::path& path, const ConfidenceExperimentResult& result) {

@@ -73,19 +73,6 @@ std::vector<MaskQuality> ParseQualities(const std::string& text) {
   return {quality};
 }
 
-std::string Joined(const std::vector<std::string>& items, const char* separator = ", ") {
-  std::string text;
-  for (const std::string& item : items) text += (text.empty() ? "" : separator) + item;
-  return text;
-}
-
-std::string Number(double value, const char* format = "%.2f") {
-  if (!std::isfinite(value)) return "-";
-  char text[32];
-  std::snprintf(text, sizeof text, format, value);
-  return text;
-}
-
 void PrintSummary(const HandheldExperimentResult& result) {
   std::printf("\nsummary (frames %d and later; 'all' columns: every frame)\n",
               result.options.skip_frames);
