@@ -961,7 +961,8 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       }
     }
   }
-  // The frame's spectrum, once: the view polish and Assess's checks correlate it with views.
+  // The frame's spectrum, once: the filter's step, the view polish and Assess's checks correlate
+  // it with views (the filter's correlator is made from the same spectra, so it is the same).
   if (usable && !radii.empty()) matcher_->correlator().Transform(radii, &frame_spectrum_);
   if (tracked.segmentation.ok()) result.time_describe_ms = lap();
 
@@ -976,7 +977,8 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
       TrackedFrame*& current;
       ~CurrentFrame() { current = nullptr; }
     } scope{current_ = &tracked};
-    tracked.estimate = usable ? filter_->Step(radii, apparent_radius) : filter_->Predict();
+    tracked.estimate =
+        usable ? filter_->Step(frame_spectrum_, apparent_radius) : filter_->Predict();
     // The arbitration's pose estimates count as refinement.
     result.time_match_ms = lap() - arbitration_ms_;
     const FilterEstimate& estimate = *tracked.estimate;

@@ -331,7 +331,8 @@ class Tracker {
   /// Per object: its mesh's Centre() (a pass over the vertices), computed once.
   std::vector<Eigen::Vector3d> centres_;
   /// The spectrum of the frame being processed (its on-axis signature when it has one), made once
-  /// per frame with a usable silhouette, for the view polish and the checks of Assess.
+  /// per frame with a usable silhouette, for the filter's step, the view polish and the checks of
+  /// Assess.
   SignatureSpectrum frame_spectrum_;
   /// The best-scoring view near the filter's estimate (TrackerOptions::polish_steps): moves
   /// `view`, `shell`, `roll_deg` and `score` there, each view in the shell the silhouette's
