@@ -3,8 +3,10 @@
 // with the 20 reference models) and turned into a 6-DOF pose, as the command does per frame.
 //  - BM_TrackMaskVideo/0: a mask video (lossless PNG frames), --segment mask; /1: the same with
 //    the filter keeping its particle histories (as with --lag or --smooth)
-//  - BM_TrackColourVideo: a colour video (MJPEG, camera noise), --segment bgsub (MOG2 or KNN,
-//    learned from the empty scene's image)
+//  - BM_TrackColourVideo: a colour video (MJPEG, camera noise), --segment bgsub (/0 MOG2, /1 KNN,
+//    /2 gauss, learned from the empty scene's image)
+//  - BM_SegmentColourVideo: the segmentation alone of that video's first 100 frames (decoded
+//    beforehand), same methods; the counter mean_iou compares the masks with the rendered ones
 //  - BM_TrackStreams/N: N mask videos tracked at once on N threads, one Tracker each, sharing the
 //    database and one ViewSpectra (items_per_second: frames per second of all streams together)
 // items_per_second is frames per second. The videos (300 frames of a random walk around the
@@ -16,6 +18,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
+#include <vector>
 
 #include "bench_models.h"
 #include "silpose/database/database_builder.h"
@@ -124,16 +127,66 @@ void BM_TrackMaskVideo(benchmark::State& state) {
 }
 BENCHMARK(BM_TrackMaskVideo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+// The bgsub options of the colour benchmarks: arg 0 MOG2, 1 KNN, 2 gauss.
+SegmenterOptions ColourSegmentation(int64_t method) {
+  SegmenterOptions options;
+  options.kind = SegmenterKind::kBackground;
+  options.background_method = method == 0   ? BackgroundMethod::kMog2
+                              : method == 1 ? BackgroundMethod::kKnn
+                                            : BackgroundMethod::kGaussian;
+  options.background_image_path = (GetFixture().folder / "background.png").string();
+  return options;
+}
+
 void BM_TrackColourVideo(benchmark::State& state) {
   TrackerOptions options = TrackCommandOptions();
-  options.segmentation.kind = SegmenterKind::kBackground;
-  options.segmentation.background_method =
-      state.range(0) == 0 ? BackgroundMethod::kMog2 : BackgroundMethod::kKnn;
-  options.segmentation.background_image_path = (GetFixture().folder / "background.png").string();
-  state.SetLabel(state.range(0) == 0 ? "bgsub mog2" : "bgsub knn");
+  options.segmentation = ColourSegmentation(state.range(0));
+  state.SetLabel(std::string("bgsub ") + ToString(options.segmentation.background_method));
   RunVideo(state, "video.avi", options);
 }
-BENCHMARK(BM_TrackColourVideo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_TrackColourVideo)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+
+void BM_SegmentColourVideo(benchmark::State& state) {
+  const Fixture& fixture = GetFixture();
+  cv::setNumThreads(1);
+  std::vector<cv::Mat> frames, truths;
+  {
+    std::unique_ptr<FrameSource> video = OpenFrameSource((fixture.folder / "video.avi").string());
+    std::unique_ptr<FrameSource> masks = OpenFrameSource((fixture.folder / "masks.avi").string());
+    cv::Mat frame, mask;
+    while (frames.size() < 100 && video->Read(&frame) && masks->Read(&mask)) {
+      frames.push_back(frame.clone());
+      cv::Mat grey = mask;
+      if (mask.channels() == 3) cv::extractChannel(mask, grey, 0);
+      truths.push_back(grey > 127);
+    }
+  }
+  const SegmenterOptions options = ColourSegmentation(state.range(0));
+  std::unique_ptr<Segmenter> segmenter = CreateSegmenter(options);
+  segmenter->Segment(frames.front());  // learns the background image
+  double iou_sum = 0.0;
+  int64_t segmented = 0;
+  size_t next = 0;
+  for (auto _ : state) {
+    const SegmentationResult result = segmenter->Segment(frames[next]);
+    state.PauseTiming();
+    const double both = cv::countNonZero(result.mask & truths[next]);
+    const double either = cv::countNonZero(result.mask | truths[next]);
+    iou_sum += either > 0 ? both / either : 1.0;
+    ++segmented;
+    next = (next + 1) % frames.size();
+    state.ResumeTiming();
+  }
+  state.SetItemsProcessed(segmented);
+  state.counters["mean_iou"] = benchmark::Counter(iou_sum / static_cast<double>(segmented));
+  state.SetLabel(std::string("bgsub ") + ToString(options.background_method) + ", 640x480");
+}
+BENCHMARK(BM_SegmentColourVideo)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 // Several streams in one process: each benchmark thread tracks the mask video with a tracker of its
 // own; all share the database and its spectra. Real time, so that items_per_second is the

@@ -148,6 +148,29 @@ TEST_F(CliTrackSegmentationTest, ObjectAfterFifteenEmptyFramesIsFoundWithDefault
   EXPECT_GE(overlap / either, 0.8) << "IoU of frame 30's mask with the truth";
 }
 
+// The one-Gaussian background model on the same video, learned the default way: the object is
+// found as with MOG2, and frame 30's mask matches the rendered one as well.
+TEST_F(CliTrackSegmentationTest, GaussianBackgroundFindsTheObjectAsMog2Does) {
+  const std::string poses = Path("gauss.csv");
+  const CommandResult run = Silpose(Track("--segment bgsub --bg-method gauss -o " + poses +
+                                          " --masks-out " + Path("gauss_masks")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const Rate rate = RightObject(poses, kObject);
+  std::printf("[ gauss    ] right object %.1f %% of %d frames\n", rate.Percent(), rate.frames);
+  EXPECT_EQ(rate.frames, kObjectFrames);
+  EXPECT_GE(rate.Percent(), 98.0);
+  const cv::Mat learning = cv::imread(Path("gauss_masks") + "/000005.png", cv::IMREAD_UNCHANGED);
+  const cv::Mat object = cv::imread(Path("gauss_masks") + "/000030.png", cv::IMREAD_UNCHANGED);
+  const cv::Mat truth = cv::imread(sequence_ + "/masks/000015.png", cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(learning.empty());
+  ASSERT_FALSE(object.empty());
+  ASSERT_FALSE(truth.empty());
+  EXPECT_EQ(cv::countNonZero(learning), 0);
+  const double overlap = cv::countNonZero(object & truth);
+  const double either = cv::countNonZero(object | truth);
+  EXPECT_GE(overlap / either, 0.8) << "IoU of frame 30's mask with the truth";
+}
+
 TEST_F(CliTrackSegmentationTest, LearningTheFirstThirtyFramesAbsorbsTheObject) {
   // What until-object fixes: the frames mode learns frames 15..29 too, the object with them.
   const std::string poses = Path("frames.csv");
@@ -218,6 +241,9 @@ TEST_F(CliTrackSegmentationTest, BadSegmentationOptionsAndConfigFilesAreOneClear
       {"--segment bgsub --confirm-frames 0", "object_confirm_frames"},
       {"--segment bgsub --learning-rate 1.5", "learning_rate"},
       {"--segment bgsub --mog2-threshold -1", "mog2_variance_threshold"},
+      {"--segment bgsub --bg-method gauss --gauss-threshold 0", "gauss_variance_threshold"},
+      {"--segment bgsub --bg-method gaussian", "gaussian"},
+      {"--gauss-threshold 9", "--gauss-threshold"},
       {"--segment bgsub --min-area 1", "min_area_fraction"},
       {"--segment bgsub --max-foreground 0", "max_foreground_fraction"},
       {"--mog2-threshold 9", "--mog2-threshold"},

@@ -816,7 +816,7 @@ void BindTrack(py::module_& m) {
           [](TrackerOptions& o, const std::string& v) {
             o.segmentation.background_method = ParseBackgroundMethod(v);
           },
-          "bgsub: 'mog2' or 'knn' (--bg-method).")
+          "bgsub: 'mog2', 'knn' or 'gauss' (--bg-method).")
       .def_property(
           "learning_frames", [](const TrackerOptions& o) { return o.segmentation.learning_frames; },
           [](TrackerOptions& o, int v) { o.segmentation.learning_frames = v; },

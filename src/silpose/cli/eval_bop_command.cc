@@ -201,7 +201,7 @@ void AddEvalBopCommand(CLI::App* eval) {
       ->add_option("--object-polarity", arguments->object_polarity,
                    "threshold with Otsu: object darker or brighter")
       ->capture_default_str();
-  command->add_option("--bg-method", arguments->bg_method, "bgsub: mog2 or knn")
+  command->add_option("--bg-method", arguments->bg_method, "bgsub: mog2, knn or gauss")
       ->capture_default_str();
   command->add_option("--background", arguments->background,
                       "bgsub: image of the empty scene (default: learn from the first frames)");

@@ -374,6 +374,9 @@ void RunTrackJob(const TrackJob& arguments) {
                 segment.knn_distance2_threshold != default_segment.knn_distance2_threshold,
                 "--knn-threshold");
   refuse_unless(SegmenterKind::kBackground,
+                segment.gauss_variance_threshold != default_segment.gauss_variance_threshold,
+                "--gauss-threshold");
+  refuse_unless(SegmenterKind::kBackground,
                 segment.relearn_after_frames != default_segment.relearn_after_frames,
                 "--relearn-after");
   refuse_unless(SegmenterKind::kMask,
@@ -767,7 +770,10 @@ void AddTrackCommand(CLI::App& app) {
                    "How frames become silhouettes: mask (frames are masks), bgsub (static camera: "
                    "background subtraction), threshold (Otsu or --hsv-range)")
       ->capture_default_str();
-  command->add_option("--bg-method", arguments->background_method, "bgsub: mog2 or knn")
+  command
+      ->add_option("--bg-method", arguments->background_method,
+                   "bgsub: mog2, knn or gauss (one Gaussian per pixel: the cheapest, for a "
+                   "background that does not flicker)")
       ->capture_default_str();
   command->add_option("--background", segment.background_image_path,
                       "bgsub: image of the empty scene (default: learn from the first frames)");
@@ -813,6 +819,11 @@ void AddTrackCommand(CLI::App& app) {
       ->add_option("--knn-threshold", segment.knn_distance2_threshold,
                    "bgsub knn: squared distance of a foreground pixel, grey levels squared "
                    "summed over channels (400 = 20 levels)")
+      ->capture_default_str();
+  command
+      ->add_option("--gauss-threshold", segment.gauss_variance_threshold,
+                   "bgsub gauss: squared distance of a foreground pixel from the background's "
+                   "mean, in variances (16 = 4 sigma); lower finds objects of lower contrast")
       ->capture_default_str();
   command
       ->add_option("--relearn-after", segment.relearn_after_frames,

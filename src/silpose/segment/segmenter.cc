@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "silpose/io/image_codec.h"
+#include "silpose/segment/gaussian_background.h"
 #include "silpose/shape/polar_signature.h"
 #include "silpose/util/error.h"
 
@@ -255,9 +256,15 @@ class BackgroundModel final : public ForegroundModel {
     if (options_.background_method == BackgroundMethod::kMog2) {
       model_ = cv::createBackgroundSubtractorMOG2(history, options_.mog2_variance_threshold,
                                                   options_.detect_shadows);
-    } else {
+    } else if (options_.background_method == BackgroundMethod::kKnn) {
       model_ = cv::createBackgroundSubtractorKNN(history, options_.knn_distance2_threshold,
                                                  options_.detect_shadows);
+    } else {
+      GaussianBackgroundOptions gauss;
+      gauss.history = history;
+      gauss.threshold = options_.gauss_variance_threshold;
+      gauss.detect_shadows = options_.detect_shadows;
+      model_ = cv::makePtr<GaussianBackground>(gauss);
     }
   }
 
@@ -555,12 +562,15 @@ const char* ToString(BackgroundMethod method) {
       return "mog2";
     case BackgroundMethod::kKnn:
       return "knn";
+    case BackgroundMethod::kGaussian:
+      return "gauss";
   }
   return "?";
 }
 
 BackgroundMethod ParseBackgroundMethod(std::string_view name) {
-  static constexpr BackgroundMethod kChoices[] = {BackgroundMethod::kMog2, BackgroundMethod::kKnn};
+  static constexpr BackgroundMethod kChoices[] = {BackgroundMethod::kMog2, BackgroundMethod::kKnn,
+                                                  BackgroundMethod::kGaussian};
   return ParseName(name, "background subtraction method", kChoices);
 }
 
@@ -673,6 +683,8 @@ bool SegmenterOptions::Check(std::string* error) const {
             << background_image_noise;
   } else if (!(mog2_variance_threshold > 0.0) || !Finite(mog2_variance_threshold)) {
     message << "mog2_variance_threshold must be > 0, got " << mog2_variance_threshold;
+  } else if (!(gauss_variance_threshold > 0.0) || !Finite(gauss_variance_threshold)) {
+    message << "gauss_variance_threshold must be > 0, got " << gauss_variance_threshold;
   } else if (!(knn_distance2_threshold > 0.0) || !Finite(knn_distance2_threshold)) {
     message << "knn_distance2_threshold must be > 0, got " << knn_distance2_threshold;
   } else if (relearn_after_frames < 0) {

@@ -7,6 +7,7 @@
 //   mask       the frames already are masks (a synth folder, another program's output): a pixel
 //              is object if any channel exceeds `mask_threshold` (0 = DESIGN's "non-zero").
 //   bgsub      static camera: OpenCV's BackgroundSubtractorMOG2 or KNN (Zivkovic 2004 / 2006),
+//              or one Gaussian per pixel (gaussian_background.h, the cheapest),
 //              learned from a background image, or from the frames until an object appears
 //              (default; BackgroundLearning), or from the first `learning_frames` frames, then
 //              frozen (see `learning_rate`).
@@ -37,7 +38,8 @@
 // 17000 px object, best of 3 runs on a shared 2-core machine (under load up to 2x more):
 // mask 0.2 ms; threshold otsu 0.65 / hsv 0.9 ms (downscale 2: 0.5 / 0.6); bgsub MOG2 3.9 ms
 // (downscale 2: 1.15), KNN 4.2 ms without / 5.6 ms with shadow detection (downscale 2: 1.4 / 1.8);
-// shadow detection costs MOG2 little. KNN's cost grows with the foreground's size.
+// shadow detection costs MOG2 little. KNN's cost grows with the foreground's size. gauss: see
+// docs/segmentation.md (1.1 ms with the clean-up, MOG2 4.2 ms, KNN 5.2 ms).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -59,12 +61,15 @@ const char* ToString(SegmenterKind kind);
 /// Inverse of ToString. Throws silpose::Error naming `name` and listing the choices.
 SegmenterKind ParseSegmenterKind(std::string_view name);
 
-/// OpenCV's background models (opencv2/video/background_segm.hpp).
+/// Background models: OpenCV's (opencv2/video/background_segm.hpp) and silpose's own.
 enum class BackgroundMethod : uint8_t {
   kMog2 = 0,  ///< "mog2": per-pixel Gaussian mixture (Zivkovic 2004); cheaper
   kKnn = 1,   ///< "knn": per-pixel nearest-neighbour sample set (Zivkovic & van der Heijden 2006)
+  /// "gauss": one Gaussian per pixel (segment/gaussian_background.h); the cheapest, for a static
+  /// scene whose background does not flicker or sway (one colour per pixel).
+  kGaussian = 2,
 };
-/// "mog2", "knn".
+/// "mog2", "knn", "gauss".
 const char* ToString(BackgroundMethod method);
 /// Inverse of ToString. Throws silpose::Error naming `name` and listing the choices.
 BackgroundMethod ParseBackgroundMethod(std::string_view name);
@@ -172,6 +177,9 @@ struct SegmenterOptions {
   /// (25 levels in one channel at noise sigma 4) is mostly missed; lower this, or use KNN, whose
   /// threshold is absolute.
   double mog2_variance_threshold = 16.0;
+  /// The gauss model's threshold, as MOG2's: squared distance from the pixel's mean colour, summed
+  /// over the channels, in units of the channels' summed variance (16 = 4 sigma); > 0.
+  double gauss_variance_threshold = 16.0;
   /// KNN's squared distance threshold in grey levels squared, summed over channels (OpenCV's
   /// default 400 = 20 levels); > 0.
   double knn_distance2_threshold = 400.0;
