@@ -2,7 +2,7 @@
 // A background model with one Gaussian per pixel, for a static camera (the `gauss` method of
 // bgsub, segment/segmenter.h). Cheaper than OpenCV's MOG2 and KNN: a frozen model (what silpose's
 // segmenter uses after learning) tests a frame in one pass with vector instructions; with the
-// clean-up, a 640 x 480 colour frame is segmented in about a quarter of MOG2's time
+// clean-up, a 640 x 480 colour frame is segmented in about a fifth of MOG2's time
 // (docs/PERFORMANCE.md). It cannot learn a background of more than one colour per pixel.
 //
 // Per pixel: the background's mean colour mu (one value per channel) and one variance v per

@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/background_segm.hpp>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 #include "silpose/io/image_codec.h"
 #include "silpose/segment/gaussian_background.h"
@@ -78,6 +81,46 @@ cv::Mat Shrink(const cv::Mat& frame, int factor, cv::Mat* buffer) {
                          std::min(frame.rows, small.height * factor));
   cv::resize(frame(covered), *buffer, small, 0, 0, cv::INTER_AREA);
   return *buffer;
+}
+
+// Area, bounding box and centre of gravity of each label of a CV_32S label image (0 = none), in one
+// pass over runs of equal labels. What cv::connectedComponentsWithStats reports, and the same
+// numbers (integer sums, one division); that function took 10-20 times as long as the labelling
+// alone in OpenCV 4.6 (0.45-0.9 ms against 0.04 ms for a 240 x 240 box around a disc).
+struct ComponentStats {
+  int64_t area = 0;
+  int64_t sum_x = 0;
+  int64_t sum_y = 0;
+  int left = std::numeric_limits<int>::max();
+  int top = std::numeric_limits<int>::max();
+  int right = -1;
+  int bottom = -1;
+  double CentreX() const { return static_cast<double>(sum_x) / static_cast<double>(area); }
+  double CentreY() const { return static_cast<double>(sum_y) / static_cast<double>(area); }
+};
+
+void MeasureComponents(const cv::Mat& labels, int count, std::vector<ComponentStats>* stats) {
+  stats->assign(static_cast<size_t>(std::max(count, 1)), ComponentStats{});
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* row = labels.ptr<int>(y);
+    for (int x = 0; x < labels.cols;) {
+      const int label = row[x];
+      int end = x + 1;
+      while (end < labels.cols && row[end] == label) ++end;
+      if (label > 0) {
+        ComponentStats& s = (*stats)[static_cast<size_t>(label)];
+        const int64_t run = end - x;
+        s.area += run;
+        s.sum_x += (int64_t{x} + end - 1) * run / 2;
+        s.sum_y += int64_t{y} * run;
+        s.left = std::min(s.left, x);
+        s.right = std::max(s.right, end - 1);
+        s.top = std::min(s.top, y);
+        s.bottom = std::max(s.bottom, y);
+      }
+      x = end;
+    }
+  }
 }
 
 // The kind-specific step: working frame -> raw foreground (CV_8UC1, 255 = object; other non-zero
@@ -448,22 +491,22 @@ class PipelineSegmenter final : public Segmenter {
   void ChooseComponent(const cv::Size& full, SegmentationResult* result) {
     // Labelling only the box around all foreground pixels: usually a small part of the frame.
     const cv::Rect region = NonZeroBoundingBox(foreground_);
-    const int count = cv::connectedComponentsWithStats(foreground_(region), labels_, stats_,
-                                                       centroids_, 8, CV_32S);
+    const int count = cv::connectedComponents(foreground_(region), labels_, 8, CV_32S);
+    MeasureComponents(labels_, count, &components_);
     const double scale = factor_;
     const double min_area_working = options_.min_area_fraction * double(foreground_.total());
     int chosen = -1;
     int largest_area = 0;
     double best = 0.0;
     for (int label = 1; label < count; ++label) {
-      const int area = stats_.at<int>(label, cv::CC_STAT_AREA);
+      const ComponentStats& component = components_[static_cast<size_t>(label)];
+      const int area = static_cast<int>(component.area);
       largest_area = std::max(largest_area, area);
       if (area < min_area_working || area == 0) continue;
       ++result->num_components;
       // Component centre in full-resolution pixels: working pixel centre (x + 0.5) * scale - 0.5.
-      const Eigen::Vector2d centre(
-          (centroids_.at<double>(label, 0) + region.x + 0.5) * scale - 0.5,
-          (centroids_.at<double>(label, 1) + region.y + 0.5) * scale - 0.5);
+      const Eigen::Vector2d centre((component.CentreX() + region.x + 0.5) * scale - 0.5,
+                                   (component.CentreY() + region.y + 0.5) * scale - 0.5);
       double score = area;
       if (options_.component == SegmentComponent::kNearestPrevious && has_previous_) {
         score = -(centre - previous_centre_px_).squaredNorm();
@@ -482,10 +525,9 @@ class PipelineSegmenter final : public Segmenter {
       result->message = text.str();
       return;
     }
-    const cv::Rect box(stats_.at<int>(chosen, cv::CC_STAT_LEFT) + region.x,
-                       stats_.at<int>(chosen, cv::CC_STAT_TOP) + region.y,
-                       stats_.at<int>(chosen, cv::CC_STAT_WIDTH),
-                       stats_.at<int>(chosen, cv::CC_STAT_HEIGHT));
+    const ComponentStats& component = components_[static_cast<size_t>(chosen)];
+    const cv::Rect box(component.left + region.x, component.top + region.y,
+                       component.right - component.left + 1, component.bottom - component.top + 1);
     cv::Rect box_full;
     if (factor_ == 1) {
       cv::Mat target = result->mask(region);
@@ -533,7 +575,8 @@ class PipelineSegmenter final : public Segmenter {
   Eigen::Vector2d previous_centre_px_ = Eigen::Vector2d::Zero();
   int too_large_run_ = 0;
   // Buffers kept between frames to avoid reallocations.
-  cv::Mat working_, raw_, foreground_, labels_, stats_, centroids_, chosen_;
+  cv::Mat working_, raw_, foreground_, labels_, chosen_;
+  std::vector<ComponentStats> components_;
 };
 
 }  // namespace

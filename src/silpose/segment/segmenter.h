@@ -39,7 +39,7 @@
 // mask 0.2 ms; threshold otsu 0.65 / hsv 0.9 ms (downscale 2: 0.5 / 0.6); bgsub MOG2 3.9 ms
 // (downscale 2: 1.15), KNN 4.2 ms without / 5.6 ms with shadow detection (downscale 2: 1.4 / 1.8);
 // shadow detection costs MOG2 little. KNN's cost grows with the foreground's size. gauss: see
-// docs/segmentation.md (1.1 ms with the clean-up, MOG2 4.2 ms, KNN 5.2 ms).
+// docs/segmentation.md (0.8 ms with the clean-up; MOG2 3.7-3.9 ms, KNN 4.8 ms the same way).
 
 #include <Eigen/Core>
 #include <cstdint>

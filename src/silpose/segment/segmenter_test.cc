@@ -619,6 +619,76 @@ TEST(SegmenterTest, SmallComponentsAreEmpty) {
   EXPECT_NE(result.message.find("min_area_fraction"), std::string::npos) << result.message;
 }
 
+// The segmenter measures the components itself (area, box and centre from one pass over the
+// labels) instead of cv::connectedComponentsWithStats: on random masks of blobs, specks and lines
+// (equal areas included), the component it chooses, largest or nearest to the previous one, is the
+// one OpenCV's statistics choose, and the counts agree.
+TEST(SegmenterTest, ChosenComponentIsTheOneOpenCvStatisticsChoose) {
+  cv::RNG random(21);
+  for (const SegmentComponent rule :
+       {SegmentComponent::kLargest, SegmentComponent::kNearestPrevious}) {
+    SegmenterOptions options;
+    options.component = rule;
+    options.min_area_fraction = 0.0005;  // 38 px of 320 x 240
+    auto segmenter = CreateSegmenter(options);
+    bool has_previous = false;
+    cv::Point2d previous;
+    for (int trial = 0; trial < 150; ++trial) {
+      SCOPED_TRACE(std::string(ToString(rule)) + " trial " + std::to_string(trial));
+      cv::Mat mask = cv::Mat::zeros(240, 320, CV_8UC1);
+      const int blobs = random.uniform(1, 7);
+      for (int b = 0; b < blobs; ++b) {
+        const cv::Point centre(random.uniform(0, 320), random.uniform(0, 240));
+        if (random.uniform(0, 3) == 0) {  // a square: several of equal area
+          const int half = random.uniform(3, 12);
+          cv::rectangle(mask, cv::Rect(centre.x - half, centre.y - half, 2 * half, 2 * half),
+                        cv::Scalar(255), cv::FILLED);
+        } else {
+          cv::ellipse(mask, centre, cv::Size(random.uniform(2, 40), random.uniform(2, 30)),
+                      random.uniform(0, 180), 0, 360, cv::Scalar(255), cv::FILLED);
+        }
+      }
+      for (int k = 0; k < 30; ++k)
+        mask.at<uchar>(random.uniform(0, 240), random.uniform(0, 320)) = 255;
+      cv::line(mask, cv::Point(random.uniform(0, 320), 0), cv::Point(random.uniform(0, 320), 239),
+               cv::Scalar(255));
+
+      cv::Mat labels, stats, centroids;
+      const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+      int chosen = -1, kept = 0;
+      double best = 0.0;
+      for (int label = 1; label < count; ++label) {
+        const int area = stats.at<int>(label, cv::CC_STAT_AREA);
+        if (area < options.min_area_fraction * static_cast<double>(mask.total())) continue;
+        ++kept;
+        const cv::Point2d centre(centroids.at<double>(label, 0), centroids.at<double>(label, 1));
+        double score = area;
+        if (rule == SegmentComponent::kNearestPrevious && has_previous) {
+          const cv::Point2d d = centre - previous;
+          score = -(d.x * d.x + d.y * d.y);
+        }
+        if (chosen < 0 || score > best) {
+          chosen = label;
+          best = score;
+        }
+      }
+      const SegmentationResult result = segmenter->Segment(mask);
+      if (chosen < 0) {
+        EXPECT_EQ(result.status, SegmentationStatus::kEmpty) << result.message;
+        continue;
+      }
+      ASSERT_TRUE(result.ok()) << result.message;
+      EXPECT_EQ(result.num_components, kept);
+      EXPECT_EQ(cv::countNonZero(result.mask != (labels == chosen)), 0);
+      EXPECT_EQ(result.area_px, stats.at<int>(chosen, cv::CC_STAT_AREA));
+      EXPECT_NEAR(result.centroid_px.x(), centroids.at<double>(chosen, 0), 1e-9);
+      EXPECT_NEAR(result.centroid_px.y(), centroids.at<double>(chosen, 1), 1e-9);
+      previous = cv::Point2d(result.centroid_px.x(), result.centroid_px.y());
+      has_previous = true;
+    }
+  }
+}
+
 TEST(SegmenterTest, NearestComponentFollowsTheObject) {
   // A small object moving right; from frame 5 a larger blob appears elsewhere.
   const auto frame = [](int t) {
