@@ -144,6 +144,10 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
         silpose.TrackerOptions(segmnt="bgsub")
     with pytest.raises(silpose.Error, match="'bgsubtraction'"):
         silpose.TrackerOptions(segment="bgsubtraction")
+    assert silpose.TrackerOptions().background_method == "mog2"
+    assert silpose.TrackerOptions(background_method="gauss").background_method == "gauss"
+    with pytest.raises(silpose.Error, match="'gaussian'"):
+        silpose.TrackerOptions(background_method="gaussian")
     with pytest.raises(silpose.Error, match="no-such-video.avi"):
         silpose.FrameReader("no-such-video.avi")
     with pytest.raises(silpose.Error, match="invalid camera"):
@@ -206,3 +210,21 @@ def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp
         silpose.track_video(database, video / "video.avi", options=options, lag=3, smooth=True)
     with pytest.raises(silpose.Error, match="lag must be >= 0"):
         silpose.track_video(database, video / "video.avi", options=options, lag=-1)
+
+
+def test_one_gaussian_background_gives_the_poses_of_track(cli_database, video, tmp_path):
+    """--bg-method gauss from Python: the rows of 'silpose track --bg-method gauss'."""
+    cli = tmp_path / "cli.csv"
+    run_cli("track", "-d", cli_database, video / "video.avi", "--camera", video / "camera.yml",
+            "--segment", "bgsub", "--bg-method", "gauss", "--background",
+            video / "background.png", "-o", cli)
+    options = silpose.TrackerOptions(segment="bgsub", background_method="gauss",
+                                     background=str(video / "background.png"))
+    tracker = silpose.Tracker(silpose.ViewDatabase.read(cli_database),
+                              silpose.Camera.read(video / "camera.yml"), options)
+    with silpose.PosesWriter(tmp_path / "py.csv") as writer:
+        for frame in silpose.FrameReader(str(video / "video.avi"), masks=False):
+            writer.write(tracker.process(frame))
+    rows = read_poses(cli)
+    assert read_poses(tmp_path / "py.csv") == rows
+    assert sum(row["object"] != "" for row in rows) >= len(rows) - 2
