@@ -14,10 +14,10 @@
 // brightness ratio, in [shadow_ratio, 1] and |x - a mu|^2 <= threshold * C * v * a^2 (the shadow
 // rule of Prati et al. 2003 that MOG2 applies).
 //
-// Learning, as OpenCV's subtractors do it: apply(frame, mask, rate) with
-//   rate < 0   automatic: 1 / min(2 n, history) for the n-th frame (1 for the first, which sets
-//              mu = x and v = initial_variance), a running average of the frames so far; every
-//              pixel is learned;
+// Learning, as OpenCV's subtractors do it: the first frame, whatever the rate, sets mu = x and
+// v = initial_variance (and its mask is empty); then apply(frame, mask, rate) with
+//   rate < 0   automatic: 1 / min(2 n, history) for the n-th frame, a running average of the
+//              frames so far; every pixel is learned;
 //   rate = 0   the model is frozen: the frame is only classified;
 //   rate > 0   mu += rate (x - mu), v += rate (d2 / C - v) at the pixels classified background
 //              only, so that an object that stops is not learned into the background.

@@ -159,7 +159,8 @@ struct SegmenterOptions {
   /// covered by a still object joins the background once its new mode's weight reaches
   /// 1 - background ratio = 0.1, i.e. after ~0.1 / rate frames (rate 0.001: ~100 frames = 3 s at
   /// 30 frames/s). So only tiny rates (<= 1e-4, ~30 s) make sense, to follow slow light drift.
-  /// (KNN cannot take 0; it gets 1e-7, which refreshes a sample every ~10^5 frames.)
+  /// (KNN cannot take 0; it gets 1e-7, which refreshes a sample every ~10^5 frames. gauss learns
+  /// only the pixels it classifies as background: a still object never joins it.)
   double learning_rate = 0.0;
   /// If not empty: the model is initialised from this image of the empty scene (any format
   /// OpenCV reads; same size as the frames) instead of from the first frames.
