@@ -115,7 +115,8 @@ void AddEvalVideoCommand(CLI::App* eval) {
   command
       ->add_option("--camera-noise", arguments->options.camera_noise, "Camera noise, grey levels")
       ->capture_default_str();
-  command->add_option("--bg-method", arguments->bg_method, "mog2, knn or gauss")->capture_default_str();
+  command->add_option("--bg-method", arguments->bg_method, "mog2, knn or gauss")
+      ->capture_default_str();
   command->add_option("--seed", arguments->options.seed, "Seed")
       ->capture_default_str()
       ->check(SeedNumber());

@@ -141,7 +141,6 @@ GaussianBackground::GaussianBackground(const GaussianBackgroundOptions& options)
 
 void GaussianBackground::clear() {
   frames_ = 0;
-  channels_ = 0;
   for (cv::Mat& plane : mean_) plane.release();
   variance_.release();
 }
@@ -158,23 +157,20 @@ void GaussianBackground::apply(cv::InputArray image_array, cv::OutputArray mask_
     ThrowError("gaussian background: learning rate must be < 0 (automatic) or in [0, 1], got ",
                rate);
   }
-  if (frames_ > 0 && (image.size() != size_ || image.type() != type_)) {
+  if (frames_ > 0 && (image.size() != variance_.size() || image.type() != type_)) {
     ThrowError("gaussian background: frame of ", image.cols, " x ", image.rows, " with ",
-               image.channels(), " channel(s) after frames of ", size_.width, " x ", size_.height,
-               " with ", channels_);
+               image.channels(), " channel(s) after frames of ", variance_.cols, " x ",
+               variance_.rows, " with ", Channels());
   }
   mask_array.create(image.size(), CV_8UC1);
   cv::Mat mask = mask_array.getMat();
   if (frames_ == 0) {
-    size_ = image.size();
     type_ = image.type();
-    channels_ = image.channels();
-    for (int c = 0; c < channels_; ++c) mean_[c].create(size_, CV_32FC1);
-    variance_.create(size_, CV_32FC1);
+    variance_.create(image.size(), CV_32FC1);
     // The first frame is the background: mean = frame, variance = the initial one.
     cv::Mat planes[3];
     cv::split(image, planes);
-    for (int c = 0; c < channels_; ++c) planes[c].convertTo(mean_[c], CV_32F);
+    for (int c = 0; c < Channels(); ++c) planes[c].convertTo(mean_[c], CV_32F);
     variance_.setTo(options_.initial_variance);
     mask.setTo(0);
     frames_ = 1;
@@ -191,16 +187,16 @@ void GaussianBackground::apply(cv::InputArray image_array, cv::OutputArray mask_
 }
 
 void GaussianBackground::Classify(const cv::Mat& image, cv::Mat& mask) const {
-  const float scale = static_cast<float>(options_.threshold * channels_);
+  const float scale = static_cast<float>(options_.threshold * Channels());
   ShadowRule shadows;
   shadows.enabled = options_.detect_shadows;
   shadows.ratio = static_cast<float>(options_.shadow_ratio);
   shadows.scale = scale;
   for (int y = 0; y < image.rows; ++y) {
     const float* mean[3] = {nullptr, nullptr, nullptr};
-    for (int c = 0; c < channels_; ++c) mean[c] = mean_[c].ptr<float>(y);
+    for (int c = 0; c < Channels(); ++c) mean[c] = mean_[c].ptr<float>(y);
     const float* variance = variance_.ptr<float>(y);
-    if (channels_ == 3) {
+    if (Channels() == 3) {
       ClassifyRow<3>(image.ptr<uchar>(y), mean, variance, image.cols, scale, shadows,
                      mask.ptr<uchar>(y));
     } else {
@@ -217,9 +213,9 @@ void GaussianBackground::Learn(const cv::Mat& image, const cv::Mat& mask, double
   const float high = static_cast<float>(options_.max_variance);
   for (int y = 0; y < image.rows; ++y) {
     float* mean[3] = {nullptr, nullptr, nullptr};
-    for (int c = 0; c < channels_; ++c) mean[c] = mean_[c].ptr<float>(y);
+    for (int c = 0; c < Channels(); ++c) mean[c] = mean_[c].ptr<float>(y);
     float* variance = variance_.ptr<float>(y);
-    if (channels_ == 3) {
+    if (Channels() == 3) {
       LearnRow<3>(image.ptr<uchar>(y), mean, variance, image.cols, r, low, high, mask.ptr<uchar>(y),
                   every_pixel);
     } else {
@@ -235,8 +231,8 @@ void GaussianBackground::getBackgroundImage(cv::OutputArray image) const {
     return;
   }
   cv::Mat planes[3];
-  for (int c = 0; c < channels_; ++c) mean_[c].convertTo(planes[c], CV_8U);
-  cv::merge(planes, channels_, image);
+  for (int c = 0; c < Channels(); ++c) mean_[c].convertTo(planes[c], CV_8U);
+  cv::merge(planes, static_cast<size_t>(Channels()), image);
 }
 
 }  // namespace silpose

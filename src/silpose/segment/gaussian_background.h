@@ -73,10 +73,11 @@ class GaussianBackground final : public cv::BackgroundSubtractor {
   void Learn(const cv::Mat& image, const cv::Mat& mask, double rate, bool every_pixel);
 
   GaussianBackgroundOptions options_;
+  // The frames' channels (1 or 3), from their type.
+  int Channels() const { return CV_MAT_CN(type_); }
+
   int frames_ = 0;
-  int type_ = 0;
-  cv::Size size_;
-  int channels_ = 0;
+  int type_ = 0;      // of the first frame; the size is the variance's
   cv::Mat mean_[3];   // CV_32FC1 per channel, the frames' channel order
   cv::Mat variance_;  // CV_32FC1
 };
