@@ -204,9 +204,11 @@ struct SegmenterOptions {
   /// camera noise up to ~4 px wide and closes gaps of the same size).
   int morphology_px = -1;
   SegmentComponent component = SegmentComponent::kLargest;
-  /// Components smaller than this fraction of the frame's area are ignored, in [0, 1). 0.001 is
-  /// 307 px at 640 x 480, a 20 px blob.
-  double min_area_fraction = 0.001;
+  /// Components smaller than this fraction of the frame's area are ignored, in [0, 1). 0.0002 is
+  /// 61 px at 640 x 480, a 9 px blob: about the smallest silhouette a signature is taken from
+  /// (SignatureOptions::min_area_px, 64). An object 30 radii from a 525 px lens casts 150-900 px;
+  /// a larger value drops such objects as if the frame were empty.
+  double min_area_fraction = 0.0002;
   /// If more than this fraction of the frame is foreground (after morphology), the frame fails
   /// with kTooLarge instead of delivering a wrong mask, in (0, 1]; 1 = never. 0.5: an object that
   /// fills half the frame is cut by its border anyway.

@@ -612,11 +612,46 @@ TEST(SegmenterTest, MorphologyRemovesSaltNoise) {
 }
 
 TEST(SegmenterTest, SmallComponentsAreEmpty) {
-  cv::Mat mask = cv::Mat::zeros(240, 320, CV_8UC1);
-  cv::circle(mask, cv::Point(100, 100), 4, cv::Scalar(255), cv::FILLED);  // ~50 px < 77 px
+  cv::Mat mask = cv::Mat::zeros(480, 640, CV_8UC1);
+  cv::circle(mask, cv::Point(100, 100), 3, cv::Scalar(255), cv::FILLED);  // 29 px < 61 px
   const SegmentationResult result = CreateSegmenter(SegmenterOptions{})->Segment(mask);
   EXPECT_EQ(result.status, SegmentationStatus::kEmpty);
   EXPECT_NE(result.message.find("min_area_fraction"), std::string::npos) << result.message;
+}
+
+// An object 30 radii from a 525 px lens: its bounding sphere projects to a 17.5 px radius and a
+// slender part casts a few hundred pixels. The default keeps it, for every kind of segmentation,
+// and the mask is the object's.
+TEST(SegmenterTest, FarObjectIsKeptByDefault) {
+  cv::Mat mask = cv::Mat::zeros(480, 640, CV_8UC1);
+  cv::ellipse(mask, cv::Point(420, 130), cv::Size(16, 5), 30.0, 0.0, 360.0, cv::Scalar(255),
+              cv::FILLED);
+  const int area = cv::countNonZero(mask);
+  ASSERT_GT(area, 200);
+  ASSERT_LT(area, 307);  // below the 0.1 % of the frame that was once the default
+  const SegmentationResult result = CreateSegmenter(SegmenterOptions{})->Segment(mask);
+  ASSERT_EQ(result.status, SegmentationStatus::kOk) << result.message;
+  EXPECT_EQ(cv::countNonZero(result.mask), area);
+  EXPECT_EQ(IoU(result.mask, mask), 1.0);
+
+  // The same object in a colour frame, against the empty scene's image (default clean-up: the
+  // opening with a 2 px disc keeps a 10 px wide object).
+  const Scene scene(mask.size());
+  const std::filesystem::path path =
+      std::filesystem::path(testing::TempDir()) / "silpose_far_object_background.png";
+  ASSERT_TRUE(cv::imwrite(path.string(), scene.background()));
+  ASSERT_EQ(scene.background().size(), mask.size());
+  cv::Mat frame = scene.background().clone();
+  frame.setTo(cv::Scalar(40, 200, 230), mask);
+  for (const BackgroundMethod method :
+       {BackgroundMethod::kMog2, BackgroundMethod::kKnn, BackgroundMethod::kGaussian}) {
+    SegmenterOptions options = BackgroundOptions(method, 1);
+    options.background_image_path = path.string();
+    const SegmentationResult colour = CreateSegmenter(options)->Segment(frame);
+    ASSERT_EQ(colour.status, SegmentationStatus::kOk) << ToString(method) << ": " << colour.message;
+    EXPECT_GE(IoU(colour.mask, mask), 0.8) << ToString(method);
+  }
+  std::filesystem::remove(path);
 }
 
 // The segmenter measures the components itself (area, box and centre from one pass over the
