@@ -30,7 +30,7 @@ struct EvalHandheldArguments {
   int sequences = 3;
   int frames = 120;
   int orbit_frames = 120;
-  std::string distances = "3,7,15";
+  std::string distances = "3,7,15,30";
   std::string mask_quality = "both";
   int threads = 0;
   int views = 1000;
@@ -41,7 +41,7 @@ struct EvalHandheldArguments {
   bool quick = false;
   // Which options were given (--quick does not override them).
   bool sequences_given = false, frames_given = false, orbit_frames_given = false,
-       views_given = false, evaluate_given = false;
+       views_given = false, evaluate_given = false, distances_given = false;
 };
 
 std::vector<double> ParseDistances(const std::string& text) {
@@ -190,6 +190,7 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
     if (!arguments.frames_given) options.frames = 40;
     if (!arguments.orbit_frames_given) options.orbit_frames = 30;
     if (!arguments.evaluate_given) evaluate = {"bunny", "hand"};
+    if (!arguments.distances_given) options.orbit_distances_radii = {3.0, 7.0, 15.0};
   }
   if (views < 1) ThrowError("--views must be >= 1");
   if (options.sequences_per_model < 0) ThrowError("--sequences must be >= 0");
@@ -338,6 +339,7 @@ void AddEvalHandheldCommand(CLI::App* eval) {
     given.orbit_frames_given = command->count("--orbit-frames") > 0;
     given.views_given = command->count("--views") > 0;
     given.evaluate_given = command->count("--evaluate") > 0;
+    given.distances_given = command->count("--distances") > 0;
     RunEvalHandheld(given);
   });
 }

@@ -12,8 +12,9 @@
 //    (in the order of HandheldExperimentOptions::models, or the database's) has the seed
 //    first_seed + i * sequences_per_model + k; it seeds the trajectory, the mask degradation and
 //    the tracker's filter.
-//  - one orbit per distance in `orbit_distances_radii` (TrajectoryKind::kOrbit, the paper's 1
-//    degree per frame, tilt 30 degrees, roll 0), `orbit_frames` frames each; its degradation and
+//  - one orbit per distance in `orbit_distances_radii` (by default 3, 7, 15 and 30 radii;
+//    TrajectoryKind::kOrbit, the paper's 1 degree per frame, tilt 30 degrees, roll 0),
+//    `orbit_frames` frames each; its degradation and
 //    filter seed is first_seed + 500000 + i * (number of distances) + j.
 // Each sequence is rendered once per mask quality (kPerfect: the rendered mask; kThreshold: the
 // flaws of a colour threshold's mask, synth/degradation.h), and every tracker of `trackers` sees
@@ -109,7 +110,7 @@ struct HandheldExperimentOptions {
   /// The hand-held motion; `seed` is set per sequence (see the file comment).
   HandheldOptions handheld;
   /// Orbit distances, object radii (each > 1, no repeats; empty: no orbits), and frames per orbit.
-  std::vector<double> orbit_distances_radii = {3.0, 7.0, 15.0};
+  std::vector<double> orbit_distances_radii = {3.0, 7.0, 15.0, 30.0};
   int orbit_frames = 120;
   /// Mask qualities, each sequence rendered with each (non-empty, no repeats).
   std::vector<MaskQuality> mask_qualities = {MaskQuality::kPerfect, MaskQuality::kThreshold};
