@@ -628,6 +628,8 @@ bool ContourRefinementOptions::Check(std::string* error) const {
     message << "tolerance_translation must be positive and finite, got " << tolerance_translation;
   } else if (!(tolerance_cost_px2 >= 0.0) || !std::isfinite(tolerance_cost_px2)) {
     message << "tolerance_cost_px2 must be >= 0 and finite, got " << tolerance_cost_px2;
+  } else if (!(tolerance_radius_px >= 0.0) || !std::isfinite(tolerance_radius_px)) {
+    message << "tolerance_radius_px must be >= 0 and finite, got " << tolerance_radius_px;
   } else {
     return true;
   }
@@ -909,6 +911,13 @@ std::vector<Eigen::Vector3d> ModelOutlinePoints(const ContourModel& model,
 
 namespace {
 
+// The cost tolerance per residual for this frame (ContourRefinementOptions::tolerance_radius_px).
+double CostTolerance(const ContourRefinementOptions& options, const FrameOutline& frame) {
+  if (!(options.tolerance_radius_px > 0.0)) return options.tolerance_cost_px2;
+  const double radius = std::sqrt(static_cast<double>(frame.area_px()) / std::numbers::pi);
+  return options.tolerance_cost_px2 * std::min(1.0, radius / options.tolerance_radius_px);
+}
+
 // The checks RefinePoseToContour and ContourFitCost share (`what` names the function).
 void CheckRefinementInputs(const char* what, const ContourModel& model, const PinholeCamera& camera,
                            const FrameOutline& frame, const Rigid3& initial,
@@ -986,6 +995,7 @@ ContourRefinementResult RefinePoseToContour(const ContourModel& model, const Pin
   Vector6d gradient;
   Evaluation current;
   bool have_initial = false;
+  const double tolerance_cost = CostTolerance(options, frame);
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     const Eigen::Vector3d centre_in_camera = pose.rotation * centre + pose.translation;
     if (iteration % options.reselect_every == 0) {
@@ -1022,7 +1032,7 @@ ContourRefinementResult RefinePoseToContour(const ContourModel& model, const Pin
                                         options, nullptr, nullptr);
       if (trial.cost < current.cost) {
         const double residual_count = static_cast<double>(ws.points.size() + ws.matches.size());
-        if (current.cost - trial.cost < options.tolerance_cost_px2 * residual_count) {
+        if (current.cost - trial.cost < tolerance_cost * residual_count) {
           // Too small a gain to tell from the outline's pixel noise: keep the pose, done.
           accepted = false;
           break;

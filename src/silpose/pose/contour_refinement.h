@@ -84,8 +84,17 @@ struct ContourRefinementOptions {
   double tolerance_translation = 1e-4;
   /// ... or when a step lowers the robust cost by less than this per residual, pixels^2 (the
   /// mean Huber loss, r^2 / 2 for small r). Such a step only fits the outlines' pixel noise along
-  /// weakly observed directions; it is not applied. >= 0 (0: never).
+  /// weakly observed directions; it is not applied. >= 0 (0: never). For a frame silhouette
+  /// smaller than tolerance_radius_px, see there.
   double tolerance_cost_px2 = 1e-3;
+  /// A frame silhouette whose equivalent radius r (sqrt(area / pi), pixels) is below this uses
+  /// tolerance_cost_px2 * r / tolerance_radius_px. A far object's outline distances, and what a
+  /// step gains, shrink with its size, so a fixed tolerance stops its refinement early: at 15 radii
+  /// (r about 30 px) after one or two steps, about 0.5 degrees from the truth. >= 0 (0: a fixed
+  /// tolerance). 100 px, the linear scale and the value were chosen on the tuning models; the
+  /// square of the ratio (what the cost's own scale suggests) refined ragged masks into their
+  /// noise.
+  double tolerance_radius_px = 100.0;
   /// Compute ContourRefinementResult::iou (one more rendering plus a pass over the window).
   bool compute_iou = true;
 

@@ -191,6 +191,9 @@ TEST(ContourRefinementTest, OptionsAreChecked) {
   options = {};
   options.tolerance_translation = std::nan("");
   EXPECT_NE(message_of(options).find("tolerance_translation"), std::string::npos);
+  options = {};
+  options.tolerance_radius_px = -1.0;
+  EXPECT_NE(message_of(options).find("tolerance_radius_px"), std::string::npos);
 }
 
 TEST(ContourRefinementTest, BadInputsThrow) {
@@ -406,6 +409,51 @@ TEST(ContourRefinementTest, ConvergesFromPerturbedPosesOnCleanMasks) {
   EXPECT_LT(Percentile(centre, 0.5), 0.005);
   EXPECT_LT(Percentile(centre, 0.9), 0.01);
   EXPECT_GT(Percentile(iou, 0.5), 0.97);
+}
+
+// A far object (15-25 radii: a silhouette of 20-35 px radius) from a start about a degree off,
+// what a grid view and a first refinement leave: with the cost tolerance scaled to the
+// silhouette's size (the default) the refinement goes on where a fixed tolerance stops it, and
+// ends nearer the truth. Measured over these 40 cases: rotation error median 0.53 against 0.62
+// degrees, 90th percentile 1.23 against 1.60; more iterations in 19 cases.
+TEST(ContourRefinementTest, FarObjectsAreRefinedAsFarAsNearOnes) {
+  std::mt19937 random(515);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> gauss;
+  ContourRefinementOptions fixed;
+  fixed.tolerance_radius_px = 0.0;
+  std::vector<double> scaled_error, fixed_error;
+  int more_iterations = 0;
+  for (const char* name : {"bunny", "cow", "elephant", "anchor"}) {
+    const TriangleMesh& mesh = Mesh(name);
+    for (int i = 0; i < 10; ++i) {
+      const Eigen::Vector3d view =
+          Eigen::Vector3d(gauss(random), gauss(random), gauss(random)).normalized();
+      const Rigid3 truth =
+          TruePose(mesh, view, 360.0 * uniform(random) - 180.0, 15.0 + 10.0 * uniform(random),
+                   20.0 * uniform(random), 360.0 * uniform(random));
+      const Rigid3 start =
+          Perturb(truth, mesh.Centre(), 0.7 + 0.6 * uniform(random), 0.003, random);
+      const FrameOutline frame(RenderMask(mesh, PlainCamera(), truth));
+      ASSERT_LT(frame.area_px(), std::numbers::pi * 40.0 * 40.0) << name;
+      const ContourRefinementResult scaled = RefinePoseToContour(mesh, PlainCamera(), frame, start);
+      const ContourRefinementResult plain =
+          RefinePoseToContour(mesh, PlainCamera(), frame, start, fixed);
+      scaled_error.push_back(
+          ErrorsOf(scaled.camera_from_object, truth, mesh.Centre()).rotation_deg);
+      fixed_error.push_back(ErrorsOf(plain.camera_from_object, truth, mesh.Centre()).rotation_deg);
+      more_iterations += scaled.iterations > plain.iterations;
+      EXPECT_GE(scaled.iterations, plain.iterations) << name << ' ' << i;
+    }
+  }
+  std::printf(
+      "far objects, %zu cases: median rotation error %.3f deg (fixed tolerance %.3f), "
+      "p90 %.3f (%.3f); more iterations in %d\n",
+      scaled_error.size(), Percentile(scaled_error, 0.5), Percentile(fixed_error, 0.5),
+      Percentile(scaled_error, 0.9), Percentile(fixed_error, 0.9), more_iterations);
+  EXPECT_GT(more_iterations, 10);
+  EXPECT_LT(Percentile(scaled_error, 0.5), 0.95 * Percentile(fixed_error, 0.5));
+  EXPECT_LT(Percentile(scaled_error, 0.9), 0.9 * Percentile(fixed_error, 0.9));
 }
 
 TEST(ContourRefinementTest, TruePoseIsAFixedPoint) {
