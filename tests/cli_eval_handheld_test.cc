@@ -117,11 +117,11 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {
   ASSERT_FALSE(bins.empty());
   EXPECT_EQ(bins[0],
             "axis,bin,mask_quality,tracker,frames,right_object_percent,rotation_median_deg,"
-            "rotation_mean_deg,translation_median_percent");
+            "rotation_mean_deg,translation_median_percent,rotation_median_symmetric_deg");
   std::set<std::string> axes, speed_bins;
   for (size_t i = 1; i < bins.size(); ++i) {
     const std::vector<std::string> cells = Cells(bins[i]);
-    ASSERT_EQ(cells.size(), 9u) << bins[i];
+    ASSERT_EQ(cells.size(), 10u) << bins[i];
     axes.insert(cells[0]);
     if (cells[0] == "speed") speed_bins.insert(cells[1]);
   }

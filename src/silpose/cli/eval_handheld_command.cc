@@ -98,7 +98,7 @@ void PrintBins(const HandheldExperimentResult& result) {
         HandheldBinLabels(axis, result.options.orbit_distances_radii);
     std::printf(
         "\nby %s (every mask quality run; frames %d and later): frames, right object %%, "
-        "median rotation error deg\n",
+        "median rotation error modulo symmetry deg\n",
         HandheldBinAxisName(axis), result.options.skip_frames);
     std::printf("%-10s", "bin");
     for (HandheldTracker tracker : trackers) std::printf(" | %-25s", HandheldTrackerName(tracker));
@@ -112,7 +112,7 @@ void PrintBins(const HandheldExperimentResult& result) {
           continue;
         }
         std::printf(" | %6d %8.2f %9s", row->stats.frames, row->stats.RightObjectPercent(),
-                    Number(row->stats.rotation_median_deg).c_str());
+                    Number(row->stats.rotation_median_symmetric_deg).c_str());
       }
       std::printf("\n");
     }

@@ -305,12 +305,13 @@ void WriteHandheldSummary(const std::filesystem::path& path,
 void WriteHandheldFrames(const std::filesystem::path& path, const HandheldExperimentResult& result,
                          const ViewDatabase& database);
 /// bins.csv: axis,bin,mask_quality,tracker,frames,right_object_percent,rotation_median_deg,
-/// rotation_mean_deg,translation_median_percent.
+/// rotation_mean_deg,translation_median_percent,rotation_median_symmetric_deg.
 void WriteHandheldBins(const std::filesystem::path& path, const HandheldExperimentResult& result);
 
-/// Median rotation error per speed bin (left) and per distance bin (right), one series per
-/// tracker and mask quality (the orbits as separate markers on the distance panel). Empty bins
-/// are left out.
+/// Median rotation error modulo the models' symmetries (a turn a symmetric model's silhouette
+/// cannot show is no error) per speed bin and per distance bin, a pair of panels per mask
+/// quality, one series per tracker (the orbits as separate markers on the distance panels).
+/// Empty bins are left out.
 Figure HandheldFigure(const HandheldExperimentResult& result);
 
 }  // namespace silpose

@@ -362,9 +362,62 @@ TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   }
   const std::vector<std::string> bins = ReadLines(folder / "bins.csv");
   ASSERT_EQ(bins.size(), 1u + result_->bins.size());
-  for (const std::string& line : bins) EXPECT_EQ(CountCells(line), 9u) << line;
+  for (const std::string& line : bins) EXPECT_EQ(CountCells(line), 10u) << line;
+  // Each frame's error modulo the symmetry is at most its plain error, so their medians are too
+  // (columns rotation_median_deg, rotation_median_symmetric_deg).
+  for (size_t k = 1; k < bins.size(); ++k) {
+    std::vector<std::string> cells(1);
+    for (const char c : bins[k]) {
+      if (c == ',') {
+        cells.emplace_back();
+      } else {
+        cells.back() += c;
+      }
+    }
+    ASSERT_EQ(cells.size(), 10u) << bins[k];
+    if (cells[6].empty() || cells[9].empty()) continue;
+    EXPECT_LE(std::stod(cells[9]), std::stod(cells[6]) + 1e-9) << bins[k];
+  }
   EXPECT_GT(std::filesystem::file_size(folder / "handheld.svg"), 1000u);
   std::filesystem::remove_all(folder);
+}
+
+// The figure: a speed and a distance panel per mask quality; each point of a hand-held series is
+// its bin's median rotation error modulo the symmetry, the orbits' squares those of their bins.
+TEST_F(HandheldExperimentTest, FigureShowsEachBinsMedianModuloSymmetry) {
+  const Figure figure = HandheldFigure(*result_);
+  const std::vector<MaskQuality>& qualities = result_->options.mask_qualities;
+  ASSERT_EQ(figure.panels.size(), 2 * qualities.size());
+  EXPECT_TRUE(figure.Check());
+  size_t points = 0;
+  for (size_t q = 0; q < qualities.size(); ++q) {
+    for (const HandheldBinAxis axis : {HandheldBinAxis::kSpeed, HandheldBinAxis::kDistance}) {
+      const PlotPanel& panel = figure.panels[2 * q + (axis == HandheldBinAxis::kDistance)];
+      const std::vector<double> centres =
+          HandheldBinCentres(axis, result_->options.orbit_distances_radii);
+      for (const PlotSeries& series : panel.series) {
+        const HandheldTracker tracker = series.label == "brute-force" || series.label.empty()
+                                            ? HandheldTracker::kBruteForce
+                                            : HandheldTracker::kFilter;
+        for (size_t i = 0; i < series.x.size(); ++i) {
+          // The bin at this centre, for one of the trackers (orbit squares carry no label).
+          bool found = false;
+          for (size_t bin = 0; bin < centres.size(); ++bin) {
+            if (!(std::abs(centres[bin] - series.x[i]) < 1e-9)) continue;
+            for (const HandheldTracker t : {tracker, HandheldTracker::kFilter}) {
+              const HandheldBinRow* row =
+                  result_->Bin(axis, static_cast<int>(bin), MaskQualityName(qualities[q]), t);
+              found = found ||
+                      (row != nullptr && row->stats.rotation_median_symmetric_deg == series.y[i]);
+            }
+          }
+          EXPECT_TRUE(found) << panel.title << " " << series.label << " x " << series.x[i];
+          ++points;
+        }
+      }
+    }
+  }
+  EXPECT_GT(points, 20u);
 }
 
 TEST(HandheldExperimentOptions, RejectsInvalidOptions) {
