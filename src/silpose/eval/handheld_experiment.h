@@ -14,8 +14,8 @@
 //    the tracker's filter.
 //  - one orbit per distance in `orbit_distances_radii` (by default 3, 7, 15 and 30 radii;
 //    TrajectoryKind::kOrbit, the paper's 1 degree per frame, tilt 30 degrees, roll 0),
-//    `orbit_frames` frames each; its degradation and
-//    filter seed is first_seed + 500000 + i * (number of distances) + j.
+//    `orbit_frames` frames each; its degradation and filter seed is
+//    first_seed + 500000 + i * (number of distances) + j.
 // Each sequence is rendered once per mask quality (kPerfect: the rendered mask; kThreshold: the
 // flaws of a colour threshold's mask, synth/degradation.h), and every tracker of `trackers` sees
 // the same masks. A sequence with all its trackers is one task; tasks run in parallel on

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "silpose/database/database_builder.h"
@@ -381,38 +382,37 @@ TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   std::filesystem::remove_all(folder);
 }
 
-// The figure: a speed and a distance panel per mask quality; each point of a hand-held series is
-// its bin's median rotation error modulo the symmetry, the orbits' squares those of their bins.
+// The figure: a speed and a distance panel per mask quality; each tracker's points (its colour:
+// a line over the hand-held bins, squares at the orbits) are its bins' median rotation errors
+// modulo the symmetry, every bin with one.
 TEST_F(HandheldExperimentTest, FigureShowsEachBinsMedianModuloSymmetry) {
   const Figure figure = HandheldFigure(*result_);
-  const std::vector<MaskQuality>& qualities = result_->options.mask_qualities;
-  ASSERT_EQ(figure.panels.size(), 2 * qualities.size());
+  const HandheldExperimentOptions& options = result_->options;
+  ASSERT_EQ(figure.panels.size(), 2 * options.mask_qualities.size());
   EXPECT_TRUE(figure.Check());
   size_t points = 0;
-  for (size_t q = 0; q < qualities.size(); ++q) {
+  for (size_t q = 0; q < options.mask_qualities.size(); ++q) {
     for (const HandheldBinAxis axis : {HandheldBinAxis::kSpeed, HandheldBinAxis::kDistance}) {
       const PlotPanel& panel = figure.panels[2 * q + (axis == HandheldBinAxis::kDistance)];
-      const std::vector<double> centres =
-          HandheldBinCentres(axis, result_->options.orbit_distances_radii);
-      for (const PlotSeries& series : panel.series) {
-        const HandheldTracker tracker = series.label == "brute-force" || series.label.empty()
-                                            ? HandheldTracker::kBruteForce
-                                            : HandheldTracker::kFilter;
-        for (size_t i = 0; i < series.x.size(); ++i) {
-          // The bin at this centre, for one of the trackers (orbit squares carry no label).
-          bool found = false;
-          for (size_t bin = 0; bin < centres.size(); ++bin) {
-            if (!(std::abs(centres[bin] - series.x[i]) < 1e-9)) continue;
-            for (const HandheldTracker t : {tracker, HandheldTracker::kFilter}) {
-              const HandheldBinRow* row =
-                  result_->Bin(axis, static_cast<int>(bin), MaskQualityName(qualities[q]), t);
-              found = found ||
-                      (row != nullptr && row->stats.rotation_median_symmetric_deg == series.y[i]);
-            }
+      const std::vector<double> centres = HandheldBinCentres(axis, options.orbit_distances_radii);
+      for (size_t t = 0; t < options.trackers.size(); ++t) {
+        std::set<std::pair<double, double>> expected, drawn;
+        for (size_t bin = 0; bin < centres.size(); ++bin) {
+          const HandheldBinRow* row =
+              result_->Bin(axis, static_cast<int>(bin), MaskQualityName(options.mask_qualities[q]),
+                           options.trackers[t]);
+          if (row != nullptr && std::isfinite(centres[bin]) &&
+              std::isfinite(row->stats.rotation_median_symmetric_deg)) {
+            expected.insert({centres[bin], row->stats.rotation_median_symmetric_deg});
           }
-          EXPECT_TRUE(found) << panel.title << " " << series.label << " x " << series.x[i];
-          ++points;
         }
+        for (const PlotSeries& series : panel.series) {
+          if (!(series.colour == PaletteColour(static_cast<int>(t)))) continue;
+          for (size_t i = 0; i < series.x.size(); ++i) drawn.insert({series.x[i], series.y[i]});
+        }
+        EXPECT_EQ(drawn, expected)
+            << panel.title << ", " << HandheldTrackerName(options.trackers[t]);
+        points += drawn.size();
       }
     }
   }
