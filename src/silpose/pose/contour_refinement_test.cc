@@ -414,8 +414,9 @@ TEST(ContourRefinementTest, ConvergesFromPerturbedPosesOnCleanMasks) {
 // A far object (15-25 radii: a silhouette of 20-35 px radius) from a start about a degree off,
 // what a grid view and a first refinement leave: with the cost tolerance scaled to the
 // silhouette's size (the default) the refinement goes on where a fixed tolerance stops it, and
-// ends nearer the truth. Measured over these 40 cases: rotation error median 0.53 against 0.62
-// degrees, 90th percentile 1.23 against 1.60; more iterations in 19 cases.
+// ends nearer the truth. Measured over these 80 cases: median rotation error 0.57 against 0.63
+// degrees; nearer in 26 cases, farther in 10 (release build; 29 and 11 with the sanitizers, whose
+// floating point differs); more iterations in 39. The 90th percentiles are about equal.
 TEST(ContourRefinementTest, FarObjectsAreRefinedAsFarAsNearOnes) {
   std::mt19937 random(515);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -426,7 +427,7 @@ TEST(ContourRefinementTest, FarObjectsAreRefinedAsFarAsNearOnes) {
   int more_iterations = 0;
   for (const char* name : {"bunny", "cow", "elephant", "anchor"}) {
     const TriangleMesh& mesh = Mesh(name);
-    for (int i = 0; i < 10; ++i) {
+    for (int i = 0; i < 20; ++i) {
       const Eigen::Vector3d view =
           Eigen::Vector3d(gauss(random), gauss(random), gauss(random)).normalized();
       const Rigid3 truth =
@@ -451,9 +452,16 @@ TEST(ContourRefinementTest, FarObjectsAreRefinedAsFarAsNearOnes) {
       "p90 %.3f (%.3f); more iterations in %d\n",
       scaled_error.size(), Percentile(scaled_error, 0.5), Percentile(fixed_error, 0.5),
       Percentile(scaled_error, 0.9), Percentile(fixed_error, 0.9), more_iterations);
-  EXPECT_GT(more_iterations, 10);
+  int nearer = 0, farther = 0;
+  for (size_t k = 0; k < scaled_error.size(); ++k) {
+    nearer += scaled_error[k] < fixed_error[k] - 0.01;
+    farther += scaled_error[k] > fixed_error[k] + 0.01;
+  }
+  std::printf("ends nearer the truth (by 0.01 degrees) in %d cases, farther in %d\n", nearer,
+              farther);
+  EXPECT_GT(more_iterations, 20);
   EXPECT_LT(Percentile(scaled_error, 0.5), 0.95 * Percentile(fixed_error, 0.5));
-  EXPECT_LT(Percentile(scaled_error, 0.9), 0.9 * Percentile(fixed_error, 0.9));
+  EXPECT_GT(nearer, farther);
 }
 
 TEST(ContourRefinementTest, TruePoseIsAFixedPoint) {
