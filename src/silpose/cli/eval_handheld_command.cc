@@ -173,7 +173,7 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
       if (!ParseHandheldTracker(name, &tracker)) {
         ThrowError("--trackers: unknown tracker '", name,
                    "' (filter, brute-force, filter-no-refine, filter-paper-motion, "
-                   "filter-lag-10, filter-smooth)");
+                   "filter-lag-10, filter-smooth, filter-adaptive)");
       }
       options.trackers.push_back(tracker);
     }
@@ -327,7 +327,7 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       ->add_option("--trackers", arguments->trackers,
                    "Trackers to compare, comma-separated: filter, brute-force, filter-no-refine, "
                    "filter-paper-motion, filter-lag-10 (track --lag 10), filter-smooth (track "
-                   "--smooth); default filter,brute-force")
+                   "--smooth), filter-adaptive (track --adaptive); default filter,brute-force")
       ->delimiter(',');
   command->add_flag("--quick", arguments->quick,
                     "Small variant for tests: sample models, 150 views, bunny and hand, one "

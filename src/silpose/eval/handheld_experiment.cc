@@ -258,6 +258,8 @@ const char* HandheldTrackerName(HandheldTracker tracker) {
       return "filter-lag-10";
     case HandheldTracker::kFilterSmooth:
       return "filter-smooth";
+    case HandheldTracker::kFilterAdaptive:
+      return "filter-adaptive";
   }
   return "?";
 }
@@ -265,7 +267,8 @@ const char* HandheldTrackerName(HandheldTracker tracker) {
 bool ParseHandheldTracker(const std::string& name, HandheldTracker* tracker) {
   for (HandheldTracker t : {HandheldTracker::kFilter, HandheldTracker::kBruteForce,
                             HandheldTracker::kFilterNoRefine, HandheldTracker::kFilterPaperMotion,
-                            HandheldTracker::kFilterLag10, HandheldTracker::kFilterSmooth}) {
+                            HandheldTracker::kFilterLag10, HandheldTracker::kFilterSmooth,
+                            HandheldTracker::kFilterAdaptive}) {
     if (name == HandheldTrackerName(t)) {
       *tracker = t;
       return true;
@@ -302,6 +305,9 @@ TrackerOptions HandheldTrackerOptions(HandheldTracker tracker, uint64_t seed) {
       break;
     case HandheldTracker::kFilterSmooth:
       options.filter.max_history_frames = 0;
+      break;
+    case HandheldTracker::kFilterAdaptive:
+      options.filter.adaptive = true;
       break;
   }
   return options;

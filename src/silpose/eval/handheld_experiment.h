@@ -85,10 +85,12 @@ enum class HandheldTracker {
   /// The filter, every frame reported at the end from the particle history that explains the
   /// whole sequence best (TrackSmoother::kOffline; `silpose track --smooth`).
   kFilterSmooth,
+  /// The filter with the adaptive particle count (KLD-sampling; `silpose track --adaptive`).
+  kFilterAdaptive,
 };
 
 /// "filter", "brute-force", "filter-no-refine", "filter-paper-motion", "filter-lag-10",
-/// "filter-smooth".
+/// "filter-smooth", "filter-adaptive".
 const char* HandheldTrackerName(HandheldTracker tracker);
 /// Inverse of HandheldTrackerName; false if `name` is none of them.
 bool ParseHandheldTracker(const std::string& name, HandheldTracker* tracker);

@@ -454,6 +454,16 @@ TEST(HandheldTrackerOptions, DescribeTheComparedTrackers) {
   EXPECT_FALSE(HandheldTrackerOptions(HandheldTracker::kFilter, 7).filter.keep_history);
   EXPECT_TRUE(HandheldTrackerOptions(HandheldTracker::kFilterLag10, 7).filter.keep_history);
   EXPECT_TRUE(HandheldTrackerOptions(HandheldTracker::kFilterSmooth, 7).filter.keep_history);
+  // The adaptive particle count only there, as `track --adaptive` runs.
+  EXPECT_FALSE(HandheldTrackerOptions(HandheldTracker::kFilter, 7).filter.adaptive);
+  const TrackerOptions adaptive = HandheldTrackerOptions(HandheldTracker::kFilterAdaptive, 7);
+  EXPECT_TRUE(adaptive.filter.adaptive);
+  EXPECT_FALSE(adaptive.brute_force);
+  EXPECT_TRUE(adaptive.refine);
+  EXPECT_FALSE(adaptive.filter.keep_history);
+  HandheldTracker parsed;
+  ASSERT_TRUE(ParseHandheldTracker("filter-adaptive", &parsed));
+  EXPECT_EQ(parsed, HandheldTracker::kFilterAdaptive);
 }
 
 }  // namespace
