@@ -265,10 +265,10 @@ const char* HandheldTrackerName(HandheldTracker tracker) {
 }
 
 bool ParseHandheldTracker(const std::string& name, HandheldTracker* tracker) {
-  for (HandheldTracker t : {HandheldTracker::kFilter, HandheldTracker::kBruteForce,
-                            HandheldTracker::kFilterNoRefine, HandheldTracker::kFilterPaperMotion,
-                            HandheldTracker::kFilterLag10, HandheldTracker::kFilterSmooth,
-                            HandheldTracker::kFilterAdaptive}) {
+  for (HandheldTracker t :
+       {HandheldTracker::kFilter, HandheldTracker::kBruteForce, HandheldTracker::kFilterNoRefine,
+        HandheldTracker::kFilterPaperMotion, HandheldTracker::kFilterLag10,
+        HandheldTracker::kFilterSmooth, HandheldTracker::kFilterAdaptive}) {
     if (name == HandheldTrackerName(t)) {
       *tracker = t;
       return true;

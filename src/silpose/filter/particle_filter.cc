@@ -903,21 +903,29 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   const Eigen::MatrixXf& table = ranking_table_[static_cast<size_t>(object)];
   ranking_.resize(num_views_);
   ranking_.noalias() = table.transpose() * frame_magnitudes;
-  // Both rankings' values in one pass over the usable views.
+  // Both rankings' leaders in one pass over the usable views: each list keeps its `ranked` best
+  // (value, view) pairs in decreasing order (ties: the higher view first), as a partial sort of
+  // all of them would, with one comparison for most views.
+  const auto ranked = static_cast<size_t>(std::max(options_.guided_candidates, count));
   bounds_.clear();
   tail_bounds_.clear();
+  const auto keep_best = [ranked](std::vector<std::pair<float, int>>& best_pairs,
+                                  std::pair<float, int> entry) {
+    if (best_pairs.size() == ranked) {
+      if (!(entry > best_pairs.back())) return;
+      best_pairs.pop_back();
+    }
+    best_pairs.insert(
+        std::upper_bound(best_pairs.begin(), best_pairs.end(), entry, std::greater<>()), entry);
+  };
   for (int v = 0; v < num_views_; ++v) {
     if (!spectra_.Usable(object, v)) continue;
-    bounds_.push_back({ranking_[v], v});
-    tail_bounds_.push_back({ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
+    keep_best(bounds_, {ranking_[v], v});
+    keep_best(tail_bounds_, {ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
   }
-  const size_t ranked =
-      std::min(bounds_.size(), static_cast<size_t>(std::max(options_.guided_candidates, count)));
   candidate_views_.clear();
-  for (std::vector<std::pair<float, int>>* ranking : {&bounds_, &tail_bounds_}) {
-    std::partial_sort(ranking->begin(), ranking->begin() + static_cast<std::ptrdiff_t>(ranked),
-                      ranking->end(), std::greater<>());
-    for (size_t c = 0; c < ranked; ++c) {
+  for (const std::vector<std::pair<float, int>>* ranking : {&bounds_, &tail_bounds_}) {
+    for (size_t c = 0; c < ranking->size(); ++c) {
       const int view = (*ranking)[c].second;
       if (std::find(candidate_views_.begin(), candidate_views_.end(), view) ==
           candidate_views_.end()) {
