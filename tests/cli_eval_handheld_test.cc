@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -86,6 +88,53 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesTheDocumentedSummary) {
   // The table on screen and the note on what the errors cover.
   EXPECT_NE(quick_->out.find("summary"), std::string::npos);
   EXPECT_NE(quick_->out.find("by speed"), std::string::npos);
+}
+
+TEST_F(CliEvalHandheldTest, QuickRunWritesEachSequenceAndComparesItWithBruteForce) {
+  ASSERT_EQ(quick_->exit_code, 0) << quick_->err;
+  const std::vector<std::string> sequences = ReadLines(out_ + "/sequences.csv");
+  ASSERT_FALSE(sequences.empty());
+  EXPECT_EQ(sequences[0],
+            "model,kind,sequence,seed,mask_quality,tracker,frames,right_object_percent,"
+            "rotation_median_symmetric_deg,translation_median_percent,view_error_symmetric_mean,"
+            "wrong_twin_frames");
+  // 2 models x (1 hand-held + 3 orbits) x 2 mask qualities x 2 trackers.
+  ASSERT_EQ(sequences.size(), 1u + 2u * 4u * 2u * 2u);
+  int filter_above = 0;
+  std::map<std::string, double> brute_force;
+  std::vector<std::pair<std::string, double>> filter;
+  for (size_t i = 1; i < sequences.size(); ++i) {
+    const std::vector<std::string> cells = Cells(sequences[i]);
+    ASSERT_EQ(cells.size(), 12u) << sequences[i];
+    EXPECT_EQ(cells[6], cells[1] == "handheld" ? "30" : "20") << sequences[i];
+    const std::string key = cells[0] + "," + cells[1] + "," + cells[2] + "," + cells[4];
+    const double view_error = cells[10].empty() ? std::nan("") : std::stod(cells[10]);
+    if (cells[5] == "brute-force") brute_force[key] = view_error;
+    if (cells[5] == "filter") filter.emplace_back(key, view_error);
+  }
+  ASSERT_EQ(filter.size(), 16u);
+  // The file holds 7 significant digits: pairs that close may fall either way.
+  int undecided = 0;
+  for (const auto& [key, view_error] : filter) {
+    ASSERT_EQ(brute_force.count(key), 1u) << key;
+    const double reference = brute_force[key];
+    if (!std::isfinite(reference)) continue;
+    if (std::isfinite(view_error) && view_error != reference &&
+        std::abs(view_error - reference) <= 1e-6 * std::abs(reference)) {
+      ++undecided;
+    } else if (!(view_error <= reference)) {
+      ++filter_above;
+    }
+  }
+  // The line on screen counts the same sequences.
+  const std::string prefix =
+      "filter above brute force in mean view error modulo symmetry (frames 10 and later) on ";
+  const size_t at = quick_->out.find(prefix);
+  ASSERT_NE(at, std::string::npos) << quick_->out;
+  const int printed = std::stoi(quick_->out.substr(at + prefix.size()));
+  EXPECT_GE(printed, filter_above);
+  EXPECT_LE(printed, filter_above + undecided);
+  EXPECT_NE(quick_->out.find(" of 16 sequences (sequences.csv)", at), std::string::npos);
 }
 
 TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {

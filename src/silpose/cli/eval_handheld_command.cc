@@ -119,6 +119,32 @@ void PrintBins(const HandheldExperimentResult& result) {
   }
 }
 
+// Each tracker against brute force, sequence by sequence (when brute force ran).
+void PrintComparisons(const HandheldExperimentResult& result) {
+  const std::vector<HandheldTracker>& trackers = result.options.trackers;
+  if (std::find(trackers.begin(), trackers.end(), HandheldTracker::kBruteForce) == trackers.end())
+    return;
+  for (HandheldTracker tracker : trackers) {
+    if (tracker == HandheldTracker::kBruteForce) continue;
+    const std::vector<HandheldComparisonRow> rows =
+        CompareHandheldTrackers(result, tracker, HandheldTracker::kBruteForce);
+    int sequences = 0, above = 0;
+    std::string parts;
+    for (const HandheldComparisonRow& row : rows) {
+      sequences += row.sequences;
+      above += row.above;
+      if (!parts.empty()) parts += ", ";
+      parts += row.kind + " " + MaskQualityName(row.mask_quality) + " " +
+               std::to_string(row.above) + "/" + std::to_string(row.sequences);
+    }
+    if (sequences == 0) continue;
+    std::printf(
+        "\n%s above brute force in mean view error modulo symmetry (frames %d and later) on %d of "
+        "%d sequences (sequences.csv): %s\n",
+        HandheldTrackerName(tracker), result.options.skip_frames, above, sequences, parts.c_str());
+  }
+}
+
 void WriteReadme(const std::filesystem::path& path, const HandheldExperimentResult& result,
                  const ViewDatabase& database, const std::vector<std::filesystem::path>& paths,
                  const std::string& models_note) {
@@ -146,7 +172,8 @@ void WriteReadme(const std::filesystem::path& path, const HandheldExperimentResu
   file << "\nskip frames: " << o.skip_frames << "\nseeds used:";
   for (uint64_t seed : result.Seeds()) file << ' ' << seed;
   file << "\n\nfiles: summary.csv (kind x mask quality x tracker), bins.csv (axis x bin x mask "
-          "quality x tracker), frames.csv (every frame), handheld.svg / handheld.png\n";
+          "quality x tracker), sequences.csv (each sequence x tracker), frames.csv (every frame), "
+          "handheld.svg / handheld.png\n";
   file.close();
   if (!file) ThrowError(path.string(), ": write failed");
 }
@@ -260,6 +287,7 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
 
   WriteHandheldSummary(folder / "summary.csv", result);
   WriteHandheldBins(folder / "bins.csv", result);
+  WriteHandheldSequences(folder / "sequences.csv", result);
   WriteHandheldFrames(folder / "frames.csv", result, database);
   const Figure figure = HandheldFigure(result);
   figure.WriteSvg(folder / "handheld.svg");
@@ -268,11 +296,13 @@ void RunEvalHandheld(const EvalHandheldArguments& arguments) {
 
   PrintSummary(result);
   PrintBins(result);
+  PrintComparisons(result);
   std::printf(
       "\nrotation / translation errors: right-object frames with a pose; view error: every frame "
       "with an estimate; 'no-est': frames without any estimate (counted as wrong object)\n");
   std::printf(
-      "%.1f s; wrote summary.csv, bins.csv, frames.csv, handheld.svg, handheld.png, "
+      "%.1f s; wrote summary.csv, bins.csv, sequences.csv, frames.csv, handheld.svg, "
+      "handheld.png, "
       "README.txt (command and seeds) in %s/\n",
       result.seconds, folder.string().c_str());
 }
@@ -287,7 +317,8 @@ void AddEvalHandheldCommand(CLI::App* eval) {
       "camera (4-10 radii, off-axis, 2-15 deg/frame with pauses, reversals and cuts) and the "
       "paper's orbits at 3, 7 and 15 radii, with perfect and threshold-like masks, tracked by the "
       "filter and by brute force against the whole database; errors binned by distance, "
-      "off-axis angle, speed and mask quality. Writes OUT/summary.csv, bins.csv, frames.csv, "
+      "off-axis angle, speed and mask quality. Writes OUT/summary.csv, bins.csv, sequences.csv, "
+      "frames.csv, "
       "handheld.svg/.png and README.txt.");
   command->add_option("-o,--output", arguments->output, "Output folder")->capture_default_str();
   command->add_option("--models", arguments->models,

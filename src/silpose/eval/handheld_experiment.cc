@@ -5,10 +5,13 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <set>
+#include <span>
 #include <sstream>
+#include <tuple>
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/pose/pose_error.h"
@@ -210,8 +213,8 @@ void RunTask(const ViewDatabase& database, const TriangleMesh& mesh, const Task&
 }
 
 template <typename Predicate>
-std::vector<const HandheldFrame*> SelectFrames(const std::vector<HandheldRun>& runs,
-                                               int skip_frames, Predicate keep) {
+std::vector<const HandheldFrame*> SelectFrames(std::span<const HandheldRun> runs, int skip_frames,
+                                               Predicate keep) {
   std::vector<const HandheldFrame*> frames;
   for (const HandheldRun& run : runs) {
     for (const HandheldFrame& f : run.frames) {
@@ -590,6 +593,11 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
   std::vector<std::string> kinds;
   if (options.sequences_per_model > 0) kinds.push_back("handheld");
   for (double d : options.orbit_distances_radii) kinds.push_back("orbit-" + ShortNumber(d));
+  for (const HandheldRun& run : result.runs) {
+    result.run_stats.push_back(ComputeHandheldStats(
+        SelectFrames(std::span<const HandheldRun>(&run, 1), options.skip_frames,
+                     [](const HandheldRun&, const HandheldFrame&) { return true; })));
+  }
   for (const std::string& kind : kinds) {
     for (MaskQuality quality : options.mask_qualities) {
       for (HandheldTracker tracker : options.trackers) {
@@ -662,6 +670,52 @@ const char* HandheldSummaryHeader() {
          "view_error_symmetric_mean,wrong_twin_frames";
 }
 
+const char* HandheldSequencesHeader() {
+  return "model,kind,sequence,seed,mask_quality,tracker,frames,right_object_percent,"
+         "rotation_median_symmetric_deg,translation_median_percent,view_error_symmetric_mean,"
+         "wrong_twin_frames";
+}
+
+std::vector<HandheldComparisonRow> CompareHandheldTrackers(const HandheldExperimentResult& result,
+                                                           HandheldTracker tracker,
+                                                           HandheldTracker reference) {
+  if (result.run_stats.size() != result.runs.size()) {
+    ThrowError("the hand-held result has ", result.run_stats.size(), " run statistics for ",
+               result.runs.size(), " runs");
+  }
+  // The reference's mean view error of each sequence, by (model, kind, sequence, mask quality).
+  std::map<std::tuple<int, std::string, int, MaskQuality>, double> reference_error;
+  for (size_t r = 0; r < result.runs.size(); ++r) {
+    const HandheldRun& run = result.runs[r];
+    if (run.tracker != reference) continue;
+    reference_error[{run.model, run.KindLabel(), run.sequence, run.mask_quality}] =
+        result.run_stats[r].view_error_symmetric_mean;
+  }
+  std::vector<HandheldComparisonRow> rows;
+  for (const HandheldSummaryRow& summary : result.summary) {
+    if (summary.tracker != tracker) continue;
+    HandheldComparisonRow row;
+    row.kind = summary.kind;
+    row.mask_quality = summary.mask_quality;
+    for (size_t r = 0; r < result.runs.size(); ++r) {
+      const HandheldRun& run = result.runs[r];
+      if (run.tracker != tracker || run.KindLabel() != row.kind ||
+          run.mask_quality != row.mask_quality) {
+        continue;
+      }
+      const auto found =
+          reference_error.find({run.model, run.KindLabel(), run.sequence, run.mask_quality});
+      if (found == reference_error.end()) continue;
+      ++row.sequences;
+      const double own = result.run_stats[r].view_error_symmetric_mean;
+      const double theirs = found->second;
+      if (std::isfinite(theirs) && !(own <= theirs)) ++row.above;
+    }
+    if (row.sequences > 0) rows.push_back(row);
+  }
+  return rows;
+}
+
 const char* HandheldFramesHeader() {
   return "model,kind,sequence,seed,mask_quality,tracker,frame,distance_radii,off_axis_deg,"
          "speed_deg_per_frame,cut,estimated_object,right_object,has_pose,rotation_error_deg,"
@@ -689,6 +743,26 @@ void WriteHandheldSummary(const std::filesystem::path& path,
         << Cell(row.all.RightObjectPercent()) << ',' << Cell(row.all.rotation_median_deg) << ','
         << Cell(s.rotation_median_symmetric_deg) << ',' << Cell(s.view_error_symmetric_mean) << ','
         << s.wrong_twin << '\n';
+  }
+  CloseCsv(csv, path);
+}
+
+void WriteHandheldSequences(const std::filesystem::path& path,
+                            const HandheldExperimentResult& result) {
+  if (result.run_stats.size() != result.runs.size()) {
+    ThrowError("the hand-held result has ", result.run_stats.size(), " run statistics for ",
+               result.runs.size(), " runs");
+  }
+  std::ofstream csv = OpenCsv(path);
+  csv << HandheldSequencesHeader() << '\n';
+  for (size_t r = 0; r < result.runs.size(); ++r) {
+    const HandheldRun& run = result.runs[r];
+    const HandheldStats& s = result.run_stats[r];
+    csv << run.model_name << ',' << run.KindLabel() << ',' << run.sequence << ',' << run.seed << ','
+        << MaskQualityName(run.mask_quality) << ',' << HandheldTrackerName(run.tracker) << ','
+        << s.frames << ',' << (s.frames > 0 ? Cell(s.RightObjectPercent()) : "") << ','
+        << Cell(s.rotation_median_symmetric_deg) << ',' << Cell(s.translation_median_percent) << ','
+        << Cell(s.view_error_symmetric_mean) << ',' << s.wrong_twin << '\n';
   }
   CloseCsv(csv, path);
 }

@@ -261,6 +261,8 @@ struct HandheldExperimentResult {
   int database_models = 0;
   /// By model, sequence (hand-held, then orbits), mask quality, tracker.
   std::vector<HandheldRun> runs;
+  /// Each run's statistics from skip_frames on, in the order of runs.
+  std::vector<HandheldStats> run_stats;
   /// Kinds in order (handheld, orbit-3, ...) x options.mask_qualities x options.trackers.
   std::vector<HandheldSummaryRow> summary;
   /// Axes in order x bins x ("all", then each quality) x trackers.
@@ -277,6 +279,23 @@ struct HandheldExperimentResult {
   std::vector<uint64_t> Seeds() const;
 };
 
+/// One tracker against another, sequence by sequence: for one kind and mask quality, the
+/// sequences both ran (same model, kind, sequence number and mask quality) and how many of them
+/// `tracker` ended with a higher mean view error modulo symmetry than `reference` (a sequence
+/// without any view from `tracker` but with one from `reference` counts as higher).
+struct HandheldComparisonRow {
+  std::string kind;
+  MaskQuality mask_quality = MaskQuality::kPerfect;
+  int sequences = 0;
+  int above = 0;
+};
+
+/// The comparison of `tracker` with `reference` over result.run_stats, one row per kind and mask
+/// quality in the summary's order (rows without a shared sequence are left out).
+std::vector<HandheldComparisonRow> CompareHandheldTrackers(const HandheldExperimentResult& result,
+                                                           HandheldTracker tracker,
+                                                           HandheldTracker reference);
+
 /// Number of tasks (sequences x mask qualities) for `num_models` models, for a progress bar.
 int HandheldTaskCount(const HandheldExperimentOptions& options, int num_models);
 
@@ -290,6 +309,7 @@ HandheldExperimentResult RunHandheldExperiment(const ViewDatabase& database,
 
 /// Column names of the CSV files, in order.
 const char* HandheldSummaryHeader();
+const char* HandheldSequencesHeader();
 const char* HandheldFramesHeader();
 const char* HandheldBinsHeader();
 
@@ -301,6 +321,12 @@ const char* HandheldBinsHeader();
 /// view_error_symmetric_mean,wrong_twin_frames (empty cells for NaN).
 void WriteHandheldSummary(const std::filesystem::path& path,
                           const HandheldExperimentResult& result);
+/// sequences.csv: one row per run (result.run_stats), frames from skip_frames on:
+/// model,kind,sequence,seed,mask_quality,tracker,frames,right_object_percent,
+/// rotation_median_symmetric_deg,translation_median_percent,view_error_symmetric_mean,
+/// wrong_twin_frames.
+void WriteHandheldSequences(const std::filesystem::path& path,
+                            const HandheldExperimentResult& result);
 /// frames.csv: every frame of every run: model,kind,sequence,seed,mask_quality,tracker,frame,
 /// distance_radii,off_axis_deg,speed_deg_per_frame,cut,estimated_object,right_object,has_pose,
 /// rotation_error_deg,translation_error_percent,view_error,roll_error_deg,time_ms,wrong_twin.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -380,6 +381,133 @@ TEST_F(HandheldExperimentTest, WritesTheDocumentedColumns) {
   expect_at_most(bins, 9, 6);
   EXPECT_GT(std::filesystem::file_size(folder / "handheld.svg"), 1000u);
   std::filesystem::remove_all(folder);
+}
+
+// sequences.csv: one row per run with that run's statistics from skip_frames on.
+TEST_F(HandheldExperimentTest, EachSequencesStatisticsAreThoseOfItsCountedFrames) {
+  ASSERT_EQ(result_->run_stats.size(), result_->runs.size());
+  for (size_t r = 0; r < result_->runs.size(); ++r) {
+    std::vector<const HandheldFrame*> counted;
+    for (const HandheldFrame& f : result_->runs[r].frames) {
+      if (f.frame >= result_->options.skip_frames) counted.push_back(&f);
+    }
+    const HandheldStats expected = ComputeHandheldStats(counted);
+    const HandheldStats& got = result_->run_stats[r];
+    EXPECT_EQ(got.frames, expected.frames);
+    EXPECT_EQ(got.right_object, expected.right_object);
+    EXPECT_EQ(got.wrong_twin, expected.wrong_twin);
+    if (std::isfinite(expected.view_error_symmetric_mean)) {
+      EXPECT_DOUBLE_EQ(got.view_error_symmetric_mean, expected.view_error_symmetric_mean);
+    }
+  }
+  const std::filesystem::path folder =
+      std::filesystem::temp_directory_path() / ("silpose_sequences_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(folder);
+  WriteHandheldSequences(folder / "sequences.csv", *result_);
+  const std::vector<std::string> lines = ReadLines(folder / "sequences.csv");
+  std::filesystem::remove_all(folder);
+  ASSERT_EQ(lines.size(), 1u + result_->runs.size());
+  EXPECT_EQ(lines[0], HandheldSequencesHeader());
+  for (size_t r = 0; r < result_->runs.size(); ++r) {
+    const std::vector<std::string> cells = SplitCells(lines[r + 1]);
+    ASSERT_EQ(cells.size(), 12u) << lines[r + 1];
+    const HandheldRun& run = result_->runs[r];
+    EXPECT_EQ(cells[0], run.model_name);
+    EXPECT_EQ(cells[1], run.KindLabel());
+    EXPECT_EQ(cells[5], HandheldTrackerName(run.tracker));
+    EXPECT_EQ(std::stoi(cells[6]), result_->run_stats[r].frames);
+    if (!cells[10].empty()) {
+      EXPECT_NEAR(std::stod(cells[10]), result_->run_stats[r].view_error_symmetric_mean, 1e-6);
+    }
+  }
+  // The comparison of the filter with brute force covers every sequence both ran.
+  int sequences = 0;
+  for (const HandheldComparisonRow& row :
+       CompareHandheldTrackers(*result_, HandheldTracker::kFilter, HandheldTracker::kBruteForce)) {
+    EXPECT_LE(row.above, row.sequences);
+    sequences += row.sequences;
+  }
+  int filter_runs = 0;
+  for (const HandheldRun& run : result_->runs)
+    filter_runs += run.tracker == HandheldTracker::kFilter;
+  EXPECT_EQ(sequences, filter_runs);
+}
+
+// A result made by hand: which sequences count, and which are above the reference.
+TEST(HandheldComparison, CountsTheSequencesWhereTheTrackerIsAboveTheReference) {
+  HandheldExperimentResult result;
+  result.options.skip_frames = 0;
+  const auto add = [&](int model, double distance, int sequence, MaskQuality quality,
+                       HandheldTracker tracker, double view_error) {
+    HandheldRun run;
+    run.model = model;
+    run.model_name = "m" + std::to_string(model);
+    run.kind = distance > 0.0 ? HandheldSequenceKind::kOrbit : HandheldSequenceKind::kHandheld;
+    run.orbit_distance_radii = distance;
+    run.sequence = sequence;
+    run.mask_quality = quality;
+    run.tracker = tracker;
+    HandheldFrame frame;
+    frame.has_view = std::isfinite(view_error);
+    frame.view_error = frame.view_error_symmetric = view_error;
+    run.frames.push_back(frame);
+    result.runs.push_back(run);
+    result.run_stats.push_back(ComputeHandheldStats({&result.runs.back().frames.back()}));
+  };
+  constexpr auto kFilter = HandheldTracker::kFilter;
+  constexpr auto kBrute = HandheldTracker::kBruteForce;
+  constexpr auto kPerfect = MaskQuality::kPerfect;
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  // Hand-held, perfect: above on model 0, equal on model 1, below on sequence 1 of model 0.
+  add(0, 0.0, 0, kPerfect, kFilter, 0.5);
+  add(0, 0.0, 0, kPerfect, kBrute, 0.25);
+  add(1, 0.0, 0, kPerfect, kFilter, 0.25);
+  add(1, 0.0, 0, kPerfect, kBrute, 0.25);
+  add(0, 0.0, 1, kPerfect, kFilter, 0.125);
+  add(0, 0.0, 1, kPerfect, kBrute, 0.25);
+  // Orbit at 7 radii: no view from the filter (above), none from brute force (not above), and a
+  // sequence brute force did not run (left out); the same sequence with threshold masks is its
+  // own row.
+  add(0, 7.0, 0, kPerfect, kFilter, kNone);
+  add(0, 7.0, 0, kPerfect, kBrute, 0.25);
+  add(1, 7.0, 0, kPerfect, kFilter, 0.5);
+  add(1, 7.0, 0, kPerfect, kBrute, kNone);
+  add(2, 7.0, 0, kPerfect, kFilter, 0.5);
+  add(0, 7.0, 0, MaskQuality::kThreshold, kFilter, 1.0);
+  add(0, 7.0, 0, MaskQuality::kThreshold, kBrute, 0.5);
+  for (const std::string kind : {"handheld", "orbit-7"}) {
+    for (const MaskQuality quality : {kPerfect, MaskQuality::kThreshold}) {
+      for (const HandheldTracker tracker : {kFilter, kBrute}) {
+        HandheldSummaryRow row;
+        row.kind = kind;
+        row.mask_quality = quality;
+        row.tracker = tracker;
+        result.summary.push_back(row);
+      }
+    }
+  }
+  const std::vector<HandheldComparisonRow> rows = CompareHandheldTrackers(result, kFilter, kBrute);
+  ASSERT_EQ(rows.size(), 3u);  // hand-held with threshold masks has no sequence
+  EXPECT_EQ(rows[0].kind, "handheld");
+  EXPECT_EQ(rows[0].sequences, 3);
+  EXPECT_EQ(rows[0].above, 1);
+  EXPECT_EQ(rows[1].kind, "orbit-7");
+  EXPECT_EQ(rows[1].mask_quality, kPerfect);
+  EXPECT_EQ(rows[1].sequences, 2);
+  EXPECT_EQ(rows[1].above, 1);
+  EXPECT_EQ(rows[2].mask_quality, MaskQuality::kThreshold);
+  EXPECT_EQ(rows[2].sequences, 1);
+  EXPECT_EQ(rows[2].above, 1);
+  // Brute force against the filter: the other way round.
+  const std::vector<HandheldComparisonRow> reverse =
+      CompareHandheldTrackers(result, kBrute, kFilter);
+  ASSERT_EQ(reverse.size(), 3u);
+  EXPECT_EQ(reverse[0].above, 1);  // sequence 1 of model 0
+  EXPECT_EQ(reverse[1].sequences, 2);
+  EXPECT_EQ(reverse[1].above, 1);  // model 1: brute force has no view, the filter has one
+  EXPECT_EQ(reverse[2].above, 0);
+  result.run_stats.pop_back();
+  EXPECT_THROW(CompareHandheldTrackers(result, kFilter, kBrute), Error);
 }
 
 // The figure: a speed and a distance panel per mask quality; each tracker's points (its colour:
