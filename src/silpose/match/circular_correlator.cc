@@ -49,30 +49,26 @@ BandLimitedValue EvaluateBandLimited(std::span<const std::complex<float>> produc
   const size_t whole = size - size % kLanes;
   std::array<double, kLanes> kd{};
   for (size_t j = 0; j < kLanes; ++j) kd[j] = static_cast<double>(j);
+  // Harmonic k = kd[j] on lane j.
+  const auto add = [&](size_t j, const std::complex<float>& product) {
+    const double a = product.real();
+    const double b = product.imag();
+    const double re = a * phase_re[j] - b * phase_im[j];
+    const double im = a * phase_im[j] + b * phase_re[j];
+    value[j] += re;
+    slope[j] += kd[j] * im;
+    bend[j] += kd[j] * kd[j] * re;
+  };
   for (size_t base = 0; base < whole; base += kLanes) {
     for (size_t j = 0; j < kLanes; ++j) {
-      const double a = products[base + j].real();
-      const double b = products[base + j].imag();
-      const double re = a * phase_re[j] - b * phase_im[j];
-      const double im = a * phase_im[j] + b * phase_re[j];
-      value[j] += re;
-      slope[j] += kd[j] * im;
-      bend[j] += kd[j] * kd[j] * re;
+      add(j, products[base + j]);
       const double next_re = phase_re[j] * step_re - phase_im[j] * step_im;
       phase_im[j] = phase_re[j] * step_im + phase_im[j] * step_re;
       phase_re[j] = next_re;
       kd[j] += static_cast<double>(kLanes);
     }
   }
-  for (size_t j = 0; whole + j < size; ++j) {
-    const double a = products[whole + j].real();
-    const double b = products[whole + j].imag();
-    const double re = a * phase_re[j] - b * phase_im[j];
-    const double im = a * phase_im[j] + b * phase_re[j];
-    value[j] += re;
-    slope[j] += kd[j] * im;
-    bend[j] += kd[j] * kd[j] * re;
-  }
+  for (size_t j = 0; whole + j < size; ++j) add(j, products[whole + j]);
   BandLimitedValue out;
   double value_sum = 0.0;
   double slope_sum = 0.0;
