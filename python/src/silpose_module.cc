@@ -873,6 +873,10 @@ void BindTrack(py::module_& m) {
                      "pose (the pose casting the same outline from far away) and report it when "
                      "it fits clearly better, by the fit arbitration's rule (--no-twin-check: "
                      "False).")
+      .def_readwrite("other_pose_check", &TrackerOptions::other_pose_check,
+                     "Also fit the object's best-scoring pose more than 15 degrees from the "
+                     "matched one and report it when it fits the outline far closer "
+                     "(--no-other-pose-check: False).")
       .def_readwrite("canonical_poses", &TrackerOptions::canonical_poses,
                      "Report the poses of symmetric objects in canonical form "
                      "(--no-canonical-poses: False).")

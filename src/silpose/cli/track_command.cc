@@ -745,6 +745,10 @@ void AddTrackCommand(CLI::App& app) {
                     "Report the matched pose of an object with a mirror plane without also "
                     "fitting its mirror twin, the pose that casts the same outline from far away "
                     "(docs/tracking.md)");
+  command->add_flag("!--no-other-pose-check", arguments->tracker.other_pose_check,
+                    "Report the matched pose without also fitting the object's best-scoring pose "
+                    "more than 15 degrees away, which is reported when it fits the outline far "
+                    "closer (docs/tracking.md)");
   command
       ->add_option("--min-confidence", arguments->tracker.state.min_confidence,
                    "Confidence from which a frame's state is 'tracking' (docs/confidence.md)")

@@ -56,6 +56,14 @@ bool TrackerOptions::Check(std::string* error) const {
     if (error != nullptr) *error = "fit_arbitration_iou_gain must be in [0, 1] (0 = off)";
     return false;
   }
+  if (!(other_pose_score_gap >= 0.0 && other_pose_score_gap <= 2.0)) {
+    if (error != nullptr) *error = "other_pose_score_gap must be in [0, 2]";
+    return false;
+  }
+  if (!(other_pose_fit_ratio > 0.0 && other_pose_fit_ratio <= 1.0)) {
+    if (error != nullptr) *error = "other_pose_fit_ratio must be in (0, 1]";
+    return false;
+  }
   if (!(fit_arbitration_score_gap >= 0.0 && fit_arbitration_score_gap <= 2.0)) {
     if (error != nullptr) *error = "fit_arbitration_score_gap must be in [0, 2] (0 = off)";
     return false;
@@ -444,6 +452,61 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   Adopt(model.mesh, std::move(*best), tracked, feed_filter);
   if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
   tracked->mirror_twin_fitted = true;
+  return true;
+}
+
+bool Tracker::FitOtherPose(TrackedFrame* tracked, int* view, int shell) {
+  FrameResult& result = tracked->result;
+  if (result.object < 0 || *view < 0 || !tracked->pose || !tracked->refinement ||
+      tracked->refinement->points_used < 6) {
+    return false;
+  }
+  const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
+  if (model.mesh.triangles.empty()) return false;
+  const ContourRefinementResult& own = *tracked->refinement;
+  const double own_rms = std::min(own.final_rms_px, own.initial_rms_px);
+  if (!std::isfinite(own_rms)) return false;
+  OtherPose other;
+  const double gap = ScorePoseGap(result.object, *view, shell, &other);
+  if (other.view < 0 || !(gap <= options_.other_pose_score_gap)) return false;
+  SilhouettePose start;
+  try {
+    PoseFromSilhouetteOptions pose_options = options_.pose;
+    pose_options.shell = shell;
+    start = EstimatePoseFromSilhouette(database_, result.object, other.view, other.roll_deg,
+                                       tracked->silhouette.signature, camera_, pose_options);
+  } catch (const Error&) {
+    return false;
+  }
+  const FrameOutline& outline = Outline(*tracked);
+  const ContourModel& contour = Contour(result.object);
+  // The mirror-twin check's screen: a start that fits far worse than the reported pose is not
+  // refined.
+  ContourRefinementOptions screen = options_.refinement;
+  screen.max_iterations = 1;
+  screen.compute_iou = false;
+  const ContourRefinementResult first =
+      RefinePoseToContour(contour, camera_, outline, start.camera_from_object, screen);
+  if (first.points_used < 6 ||
+      !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
+    return false;
+  }
+  ContourRefinementResult refined =
+      RefinePoseToContour(contour, camera_, outline, start.camera_from_object, options_.refinement);
+  if (refined.points_used < 6 || !Improves(refined)) return false;
+  // Far the closer fit (a ragged mask lets another pose fit its noise a little better), and
+  // clearly better by the fit arbitration's rule.
+  if (!(refined.final_rms_px < options_.other_pose_fit_ratio * own_rms) ||
+      !FitArbitrationPrefersChallenger({result.object, 0.0, own_rms, own.iou},
+                                       {result.object, 0.0, refined.final_rms_px, refined.iou},
+                                       options_)) {
+    return false;
+  }
+  // Reported only: the filter keeps its particles and velocity (moving its mode there on
+  // evidence this noisy cost the far threshold-like orbits the right object).
+  Adopt(model.mesh, std::move(refined), tracked, /*feed_filter=*/false);
+  if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
+  tracked->other_pose_fitted = true;
   return true;
 }
 
@@ -1056,6 +1119,15 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
     lap();
     const int matched_view = view;
     FitMirrorTwins(&tracked, /*feed_filter=*/true, &view);
+    if (view != matched_view) shell = database_.ChooseShell(result.object, view, apparent_radius);
+    result.time_refine_ms += lap();
+  }
+  if (options_.other_pose_check && options_.estimate_pose && options_.refine && usable &&
+      result.object >= 0 && tracked.refinement && view >= 0 && !radii.empty()) {
+    // The other pose's search and fit count as refinement.
+    lap();
+    const int matched_view = view;
+    FitOtherPose(&tracked, &view, shell);
     if (view != matched_view) shell = database_.ChooseShell(result.object, view, apparent_radius);
     result.time_refine_ms += lap();
   }

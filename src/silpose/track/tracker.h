@@ -125,6 +125,19 @@ struct TrackerOptions {
   /// (fit_arbitration_ratio and _margin_px; not with ratio 0). In filter mode, the filter's
   /// mode moves to the twin. Off: the matched pose's refinement is reported.
   bool mirror_twin_check = true;
+  /// Other-pose check (refinement on; docs/tracking.md, "Other-pose check"): when the best pose
+  /// of the reported object farther than the filter's mode radius (modulo symmetry; the one the
+  /// confidence's other-pose search finds) scores within other_pose_score_gap of the reported
+  /// view, it is posed and refined against the frame's outline too, and reported instead when
+  /// it fits far closer (RMS below other_pose_fit_ratio times the reported pose's) and clearly
+  /// better by the fit arbitration's rule. Only the report changes: the filter's particles and
+  /// velocity stay. Off: as before.
+  bool other_pose_check = true;
+  /// The score gap below which the other pose is refined (the best score of the reported view
+  /// and its neighbours minus the other pose's), in [0, 2].
+  double other_pose_score_gap = 0.002;
+  /// The other pose's refined RMS must be below this times the reported pose's, in (0, 1].
+  double other_pose_fit_ratio = 0.5;
   /// Report the poses of symmetric objects in canonical form (geometry/symmetry.h,
   /// docs/symmetry.md): of the poses that look alike by the object's symmetries, the one whose
   /// camera direction lies in a fixed sector of the object. Off: the pose as matched.
@@ -174,6 +187,9 @@ struct TrackedFrame {
   /// The mirror-twin check (TrackerOptions::mirror_twin_check) found that the mirror twin of the
   /// matched pose explains the outline clearly better, and the twin's refined pose is reported.
   bool mirror_twin_fitted = false;
+  /// The other-pose check (TrackerOptions::other_pose_check) found a pose of the object more than
+  /// the mode radius away that fits the outline far closer, and that pose is reported.
+  bool other_pose_fitted = false;
 };
 
 /// Puts `result`'s pose, view direction and roll in canonical form for an object with
@@ -272,6 +288,12 @@ class Tracker {
   /// database view, and (feed_filter) the filter's mode moves to the twin: true. Otherwise
   /// nothing changes: false.
   bool FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view);
+  /// The other-pose check (TrackerOptions::other_pose_check) of a refined frame at database
+  /// view `view` in shell `shell`: the best far pose of the object (ScorePoseGap), if it scores
+  /// within other_pose_score_gap, is posed and refined; if it fits far closer and clearly better,
+  /// it is reported instead (the filter untouched) and `view` becomes its database view: true.
+  /// Otherwise nothing changes: false.
+  bool FitOtherPose(TrackedFrame* tracked, int* view, int shell);
   /// The object's symmetry transforms, coarsely sampled (made when first needed).
   const std::vector<Rigid3>& SymmetryTransformsOf(int object);
   Tracker(const ViewDatabase& database, const ViewSpectra* shared_spectra,

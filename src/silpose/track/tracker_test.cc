@@ -727,6 +727,8 @@ TEST(Tracker, MirrorTwinCheckReportsTheTwinPoseThatFitsAndTheFilterFollowsIt) {
     SCOPED_TRACE(brute_force ? "brute force" : "filter");
     TrackerOptions on;
     on.brute_force = brute_force;
+    // The other-pose check finds mirror twins too: this test is of the twin check alone.
+    on.other_pose_check = false;
     TrackerOptions off = on;
     off.mirror_twin_check = false;
     int flips = 0, wrong_with = 0, wrong_without = 0;
@@ -918,12 +920,73 @@ TEST(Tracker, RefusesFramesOfAnotherSize) {
   EXPECT_THROW(tracker.Process(cv::Mat()), Error);
 }
 
+// Brute force matches every frame alone, so a frame's pose with the check differs from the one
+// without it exactly where the check reported another pose: one that fits the outline far closer.
+// The far cow orbits' wrong mirror twins are such poses (the twin check, which would take them
+// first, is off here).
+TEST(Tracker, OtherPoseCheckReportsAnotherPoseOnlyWhereItFitsFarCloser) {
+  TrackerOptions on;
+  on.brute_force = true;
+  on.mirror_twin_check = false;
+  TrackerOptions off = on;
+  off.other_pose_check = false;
+  int fitted = 0, closer = 0;
+  std::vector<SyntheticSequence> sequences;
+  for (const auto& [start_deg, tilt_deg] : kFarCowOrbits) {
+    sequences.push_back(FarCowOrbit(start_deg, tilt_deg));
+  }
+  for (const SyntheticSequence& sequence : sequences) {
+    Tracker with(Database(), sequence.camera(), on);
+    Tracker without(Database(), sequence.camera(), off);
+    for (int f = 0; f < sequence.num_frames(); ++f) {
+      const SyntheticFrame frame = sequence.Generate(f);
+      const TrackedFrame a = with.Process(frame.mask);
+      const TrackedFrame b = without.Process(frame.mask);
+      EXPECT_FALSE(b.other_pose_fitted);
+      ASSERT_EQ(a.result.object, b.result.object) << f;
+      if (!a.other_pose_fitted) {
+        ASSERT_EQ(EstimateText(a.result), EstimateText(b.result)) << f;
+        continue;
+      }
+      ++fitted;
+      ASSERT_TRUE(a.refinement && b.refinement && a.result.camera_from_object &&
+                  b.result.camera_from_object)
+          << f;
+      const auto fit = [](const ContourRefinementResult& r) {
+        return std::min(r.final_rms_px, r.initial_rms_px);
+      };
+      EXPECT_LT(fit(*a.refinement), on.other_pose_fit_ratio * fit(*b.refinement)) << f;
+      EXPECT_TRUE(FitArbitrationPrefersChallenger({0, 0.0, fit(*b.refinement), b.refinement->iou},
+                                                  {0, 0.0, fit(*a.refinement), a.refinement->iou},
+                                                  on))
+          << f;
+      // Another pose: farther than the mode radius from the one it replaced.
+      EXPECT_GT(RotationErrorDeg(a.result.camera_from_object->rotation,
+                                 b.result.camera_from_object->rotation),
+                on.filter.mode_radius_deg)
+          << f;
+      const Eigen::Matrix3d& truth = frame.truth.camera_from_object.rotation;
+      closer += RotationErrorDeg(a.result.camera_from_object->rotation, truth) <
+                RotationErrorDeg(b.result.camera_from_object->rotation, truth);
+    }
+  }
+  EXPECT_GT(fitted, 0);
+  // The pose that fits far closer is nearer the truth in most of those frames.
+  EXPECT_GT(2 * closer, fitted);
+}
+
 TEST(Tracker, RefusesInvalidOptions) {
   TrackerOptions options;
   options.filter.particles_per_object = 0;
   EXPECT_THROW(Tracker(Database(), Sequence().camera(), options), Error);
   options = {};
   options.polish_steps = -1;
+  EXPECT_THROW(Tracker(Database(), Sequence().camera(), options), Error);
+  options = {};
+  options.other_pose_score_gap = -0.1;
+  EXPECT_THROW(Tracker(Database(), Sequence().camera(), options), Error);
+  options = {};
+  options.other_pose_fit_ratio = 0.0;
   EXPECT_THROW(Tracker(Database(), Sequence().camera(), options), Error);
   PinholeCamera camera = Sequence().camera();
   camera.focal_x_px = -1.0;
