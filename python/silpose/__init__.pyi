@@ -145,6 +145,7 @@ class TrackerOptions:
     refine_from_motion: bool
     polish_steps: int
     mirror_twin_check: bool
+    other_pose_check: bool
     canonical_poses: bool
     seed: int
     keep_history: bool
