@@ -253,14 +253,14 @@ void Tracker::RememberMotion(const TrackedFrame& tracked) {
   motion_prior_ = next;
 }
 
-void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
+bool Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
                     TrackedFrame* tracked, bool feed_filter) {
   FrameResult& result = tracked->result;
   SilhouettePose& pose = *tracked->pose;
   const Eigen::Vector3d centre(mesh.Centre());
   const Eigen::Vector3d centre_in_camera =
       refined.camera_from_object.rotation * centre + refined.camera_from_object.translation;
-  if (!(centre_in_camera.z() > 0.0)) return;
+  if (!(centre_in_camera.z() > 0.0)) return false;
   pose.camera_from_object = refined.camera_from_object;
   pose.distance = centre_in_camera.norm();
   pose.centre_ray = centre_in_camera / pose.distance;
@@ -277,6 +277,7 @@ void Tracker::Adopt(const TriangleMesh& mesh, ContourRefinementResult refined,
   tracked->refinement = std::move(refined);
   // The refined orientation feeds the filter's velocity.
   if (filter_ && feed_filter) filter_->ObserveRotation(on_axis);
+  return true;
 }
 
 const ContourModel& Tracker::Contour(int object) {
@@ -363,6 +364,17 @@ constexpr double kTwinScreenSlackPx = 0.5;
 
 }  // namespace
 
+bool Tracker::WorthRefining(int object, const FrameOutline& outline, const Rigid3& start,
+                            double own_rms) {
+  ContourRefinementOptions screen = options_.refinement;
+  screen.max_iterations = 1;
+  screen.compute_iou = false;
+  const ContourRefinementResult first =
+      RefinePoseToContour(Contour(object), camera_, outline, start, screen);
+  return first.points_used >= 6 &&
+         first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx;
+}
+
 bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view) {
   FrameResult& result = tracked->result;
   const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
@@ -397,18 +409,9 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
         options_.filter.mode_radius_deg) {
       continue;
     }
-    // A screen first: the fit at the twin pose itself (one iteration, no IoU). Near the camera
-    // perspective makes the twin fit far worse than the reported pose; such a twin is not
-    // refined.
-    ContourRefinementOptions screen = options_.refinement;
-    screen.max_iterations = 1;
-    screen.compute_iou = false;
-    const ContourRefinementResult first =
-        RefinePoseToContour(Contour(result.object), camera_, Outline(*tracked), start, screen);
-    if (first.points_used < 6 ||
-        !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
-      continue;
-    }
+    // A screen first: the fit at the twin pose itself. Near the camera perspective makes the
+    // twin fit far worse than the reported pose; such a twin is not refined.
+    if (!WorthRefining(result.object, Outline(*tracked), start, own_rms)) continue;
     ContourRefinementResult twin = RefinePoseToContour(
         Contour(result.object), camera_, Outline(*tracked), start, options_.refinement);
     if (twin.points_used < 6) continue;
@@ -449,6 +452,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     filter_->ReflectMode(result.object, old_view,
                          Eigen::Matrix3d::Identity() - 2.0 * n * n.transpose());
   }
+  // (Its centre is in front of the camera, checked above: Adopt takes it.)
   Adopt(model.mesh, std::move(*best), tracked, feed_filter);
   if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
   tracked->mirror_twin_fitted = true;
@@ -482,15 +486,7 @@ bool Tracker::FitOtherPose(TrackedFrame* tracked, int* view, int shell) {
   const ContourModel& contour = Contour(result.object);
   // The mirror-twin check's screen: a start that fits far worse than the reported pose is not
   // refined.
-  ContourRefinementOptions screen = options_.refinement;
-  screen.max_iterations = 1;
-  screen.compute_iou = false;
-  const ContourRefinementResult first =
-      RefinePoseToContour(contour, camera_, outline, start.camera_from_object, screen);
-  if (first.points_used < 6 ||
-      !(first.initial_rms_px < kTwinScreenRatio * own_rms + kTwinScreenSlackPx)) {
-    return false;
-  }
+  if (!WorthRefining(result.object, outline, start.camera_from_object, own_rms)) return false;
   ContourRefinementResult refined =
       RefinePoseToContour(contour, camera_, outline, start.camera_from_object, options_.refinement);
   if (refined.points_used < 6 || !Improves(refined)) return false;
@@ -504,7 +500,7 @@ bool Tracker::FitOtherPose(TrackedFrame* tracked, int* view, int shell) {
   }
   // Reported only: the filter keeps its particles and velocity (moving its mode there on
   // evidence this noisy cost the far threshold-like orbits the right object).
-  Adopt(model.mesh, std::move(refined), tracked, /*feed_filter=*/false);
+  if (!Adopt(model.mesh, std::move(refined), tracked, /*feed_filter=*/false)) return false;
   if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
   tracked->other_pose_fitted = true;
   return true;
@@ -608,6 +604,18 @@ void Tracker::PolishView(const SignatureSpectrum& query, int object, double appa
 }
 
 double Tracker::ScorePoseGap(int object, int view, int shell, OtherPose* other) {
+  PoseGapCache& cache = pose_gap_cache_;
+  if (cache.frame == frame_ && cache.object == object && cache.view == view &&
+      cache.shell == shell) {
+    *other = cache.other;
+    return cache.gap;
+  }
+  const double gap = ComputePoseGap(object, view, shell, other);
+  cache = {frame_, object, view, shell, gap, *other};
+  return gap;
+}
+
+double Tracker::ComputePoseGap(int object, int view, int shell, OtherPose* other) {
   *other = {};
   // Another pose: farther than a posterior mode's radius (as the filter's runner-up).
   const double radius_deg = options_.filter.mode_radius_deg;
@@ -1027,6 +1035,8 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   // The frame's spectrum, once: the filter's step, the view polish and Assess's checks correlate
   // it with views (the filter's correlator is made from the same spectra, so it is the same).
   if (usable && !radii.empty()) matcher_->correlator().Transform(radii, &frame_spectrum_);
+  // Scores of the previous spectrum are no longer the frame's.
+  pose_gap_cache_ = {};
   if (tracked.segmentation.ok()) result.time_describe_ms = lap();
 
   int view = -1;

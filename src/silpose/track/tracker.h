@@ -277,9 +277,14 @@ class Tracker {
   /// start (or forgets the last one: no refined pose).
   void RememberMotion(const TrackedFrame& tracked);
   /// Reports the refined pose `refined` (with the view and roll it means); `feed_filter`: it
-  /// updates the filter's velocity.
-  void Adopt(const TriangleMesh& mesh, ContourRefinementResult refined, TrackedFrame* tracked,
+  /// updates the filter's velocity. False, and nothing changes, if the pose puts the model's
+  /// centre behind the camera.
+  bool Adopt(const TriangleMesh& mesh, ContourRefinementResult refined, TrackedFrame* tracked,
              bool feed_filter);
+  /// The screen of the mirror-twin and other-pose checks: whether `start`, another pose of
+  /// `object`, fits the frame's outline before refinement (one step's robust RMS) well enough
+  /// beside the reported pose's RMS `own_rms` to be refined.
+  bool WorthRefining(int object, const FrameOutline& outline, const Rigid3& start, double own_rms);
   /// The mirror-twin check (TrackerOptions::mirror_twin_check) of a refined frame: each mirror
   /// twin pose of the reported pose (geometry/symmetry.h, MirrorTwinPose) that is another pose
   /// modulo the object's rotations is refined against the outline; the best one that fits
@@ -341,6 +346,18 @@ class Tracker {
     double roll_deg = 0.0;
   };
   double ScorePoseGap(int object, int view, int shell, OtherPose* other);
+  double ComputePoseGap(int object, int view, int shell, OtherPose* other);
+  /// ScorePoseGap's last result, for the frame being processed (the other-pose check and the
+  /// confidence ask for the same view when the check reports nothing).
+  struct PoseGapCache {
+    int frame = -1;
+    int object = -1;
+    int view = -1;
+    int shell = -1;
+    double gap = 0.0;
+    OtherPose other;
+  };
+  PoseGapCache pose_gap_cache_;
   /// The IoU and outline RMS (pixels) of the model at the frame's pose: the refinement's, or
   /// (refinement off) after one refinement step; unchanged (NaN) without a pose.
   void MeasureFit(TrackedFrame* tracked, double* iou, double* rms_px);
