@@ -14,6 +14,7 @@
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/util/error.h"
+#include "silpose/util/top_k.h"
 
 namespace silpose {
 namespace {
@@ -909,19 +910,11 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   const auto ranked = static_cast<size_t>(std::max(options_.guided_candidates, count));
   bounds_.clear();
   tail_bounds_.clear();
-  const auto keep_best = [ranked](std::vector<std::pair<float, int>>& best_pairs,
-                                  std::pair<float, int> entry) {
-    if (best_pairs.size() == ranked) {
-      if (!(entry > best_pairs.back())) return;
-      best_pairs.pop_back();
-    }
-    best_pairs.insert(
-        std::upper_bound(best_pairs.begin(), best_pairs.end(), entry, std::greater<>()), entry);
-  };
   for (int v = 0; v < num_views_; ++v) {
     if (!spectra_.Usable(object, v)) continue;
-    keep_best(bounds_, {ranking_[v], v});
-    keep_best(tail_bounds_, {ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
+    KeepLargest(&bounds_, ranked, {ranking_[v], v});
+    KeepLargest(&tail_bounds_, ranked,
+                {ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
   }
   candidate_views_.clear();
   for (const std::vector<std::pair<float, int>>* ranking : {&bounds_, &tail_bounds_}) {

@@ -11,6 +11,7 @@
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/util/error.h"
+#include "silpose/util/top_k.h"
 
 namespace silpose {
 
@@ -657,11 +658,9 @@ double Tracker::ComputePoseGap(int object, int view, int shell, OtherPose* other
     float bound = 0.0f;
     for (size_t k = 0; k < std::min(harmonics, magnitudes.size()); ++k)
       bound += query[k] * magnitudes[k];
-    ranked_.emplace_back(bound, v);
+    KeepLargest(&ranked_, kFarCandidates, {bound, v});
   }
-  const size_t count = std::min(kFarCandidates, ranked_.size());
-  std::partial_sort(ranked_.begin(), ranked_.begin() + static_cast<std::ptrdiff_t>(count),
-                    ranked_.end(), std::greater<>());
+  const size_t count = ranked_.size();
   float alternative = -1.0f;
   for (size_t c = 0; c < count; ++c) {
     const CorrelationPeak peak = score(ranked_[c].second);
