@@ -12,14 +12,21 @@
 
 namespace silpose {
 
+namespace top_k_internal {
+
+// KeepLargest's insertion, out of line: the test before it rejects most values.
 template <typename T>
-void KeepLargest(std::vector<T>* best, size_t k, const T& value) {
-  if (k == 0) return;
-  if (best->size() >= k) {
-    if (!(value > best->back())) return;
-    best->resize(k - 1);
-  }
+[[gnu::noinline]] void Insert(std::vector<T>* best, size_t k, const T& value) {
+  if (best->size() >= k) best->resize(k - 1);
   best->insert(std::upper_bound(best->begin(), best->end(), value, std::greater<>()), value);
+}
+
+}  // namespace top_k_internal
+
+template <typename T>
+inline void KeepLargest(std::vector<T>* best, size_t k, const T& value) {
+  if (k == 0 || (best->size() >= k && !(value > best->back()))) return;
+  top_k_internal::Insert(best, k, value);
 }
 
 }  // namespace silpose
