@@ -15,21 +15,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
-
 class CliEvalBopTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -62,7 +47,7 @@ TEST_F(CliEvalBopTest, QuickRunWritesTables) {
             "object,obj_id,instances,frames,with_pose,right_object_percent,"
             "rotation_error_median_deg,translation_error_median_mm,"
             "translation_error_median_percent,recall_add_s,ar_mssd,ar_mspd,ar,ms_per_frame");
-  const std::vector<std::string> all = SplitCsv(summary[3]);
+  const std::vector<std::string> all = CsvCells(summary[3]);
   ASSERT_EQ(all.size(), 14u) << summary[3];
   EXPECT_EQ(all[0], "all");
   EXPECT_EQ(all[2], "2");
@@ -79,7 +64,7 @@ TEST_F(CliEvalBopTest, QuickRunWritesTables) {
   const std::vector<std::string> results = ReadLines(out + "/bop_results.csv");
   ASSERT_GE(results.size(), 30u);
   EXPECT_EQ(results[0], "scene_id,im_id,obj_id,score,R,t,time");
-  const std::vector<std::string> row = SplitCsv(results[1]);
+  const std::vector<std::string> row = CsvCells(results[1]);
   ASSERT_EQ(row.size(), 7u);
   std::stringstream rotation(row[4]);
   int numbers = 0;

@@ -14,21 +14,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> Cells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
-
 class CliEvalConfidenceTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -61,7 +46,7 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
             "set,frames,correct,auc,tracking,tracking_wrong_percent,correct_tracking_percent,"
             "unknown_frames,unknown_reported_percent,tracking,ambiguous,unknown-object,"
             "bad-segmentation,lost,no-silhouette");
-  const std::vector<std::string> held_out = Cells(summary[2]);
+  const std::vector<std::string> held_out = CsvCells(summary[2]);
   ASSERT_EQ(held_out.size(), 15u);
   EXPECT_EQ(held_out[0], "held-out");
   // The confidence ranks right frames above wrong ones far better than chance, and the object
@@ -81,7 +66,7 @@ TEST_F(CliEvalConfidenceTest, QuickRunFitsOnTuningModelsAndSeparatesHeldOutFrame
   std::set<std::string> models;
   int unknown = 0, trusted_unknown = 0;
   for (size_t i = 1; i < frames.size(); ++i) {
-    const std::vector<std::string> cells = Cells(frames[i]);
+    const std::vector<std::string> cells = CsvCells(frames[i]);
     ASSERT_EQ(cells.size(), 22u) << frames[i];
     models.insert(cells[0]);
     const double confidence = std::stod(cells[8]);

@@ -18,28 +18,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> Cells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
-
-std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
 class CliEvalHandheldTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -74,7 +52,7 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesTheDocumentedSummary) {
   ASSERT_EQ(summary.size(), 1u + 4u * 2u * 2u);
   std::set<std::string> kinds;
   for (size_t i = 1; i < summary.size(); ++i) {
-    const std::vector<std::string> cells = Cells(summary[i]);
+    const std::vector<std::string> cells = CsvCells(summary[i]);
     ASSERT_EQ(cells.size(), 20u) << summary[i];
     kinds.insert(cells[0]);
     // Two models (bunny, hand), one sequence each: 40 - 10 hand-held frames, 30 - 10 per orbit.
@@ -104,7 +82,7 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesEachSequenceAndComparesItWithBruteForc
   std::map<std::string, double> brute_force;
   std::vector<std::pair<std::string, double>> filter;
   for (size_t i = 1; i < sequences.size(); ++i) {
-    const std::vector<std::string> cells = Cells(sequences[i]);
+    const std::vector<std::string> cells = CsvCells(sequences[i]);
     ASSERT_EQ(cells.size(), 12u) << sequences[i];
     EXPECT_EQ(cells[6], cells[1] == "handheld" ? "30" : "20") << sequences[i];
     const std::string key = cells[0] + "," + cells[1] + "," + cells[2] + "," + cells[4];
@@ -150,7 +128,7 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {
   EXPECT_EQ(frames.size(), 1u + 2u * 130u * 2u * 2u);
   std::set<std::string> seeds;
   for (size_t i = 1; i < frames.size(); ++i) {
-    const std::vector<std::string> cells = Cells(frames[i]);
+    const std::vector<std::string> cells = CsvCells(frames[i]);
     ASSERT_EQ(cells.size(), 22u) << frames[i];
     seeds.insert(cells[3]);
     // The error modulo the object's symmetry is never above the plain one.
@@ -169,7 +147,7 @@ TEST_F(CliEvalHandheldTest, QuickRunWritesFramesBinsFigureAndReadme) {
             "rotation_mean_deg,translation_median_percent,rotation_median_symmetric_deg");
   std::set<std::string> axes, speed_bins;
   for (size_t i = 1; i < bins.size(); ++i) {
-    const std::vector<std::string> cells = Cells(bins[i]);
+    const std::vector<std::string> cells = CsvCells(bins[i]);
     ASSERT_EQ(cells.size(), 10u) << bins[i];
     axes.insert(cells[0]);
     if (cells[0] == "speed") speed_bins.insert(cells[1]);

@@ -24,13 +24,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::string& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
 int Fields(const std::string& line) {
   int fields = 1;
   for (char c : line) fields += c == ',';

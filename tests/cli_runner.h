@@ -54,14 +54,25 @@ inline std::vector<std::string> ReadLines(const std::filesystem::path& path) {
   return lines;
 }
 
-// The comma-separated cells of a CSV line (an empty last cell after a trailing comma too).
-inline std::vector<std::string> CsvCells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
+// A text file's content.
+inline std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
 }
+
+// The fields of a line between `separator`s (an empty last field after a trailing separator too).
+inline std::vector<std::string> SplitLine(const std::string& line, char separator) {
+  std::vector<std::string> fields;
+  std::stringstream stream(line);
+  for (std::string field; std::getline(stream, field, separator);) fields.push_back(field);
+  if (!line.empty() && line.back() == separator) fields.emplace_back();
+  return fields;
+}
+
+// The comma-separated cells of a CSV line.
+inline std::vector<std::string> CsvCells(const std::string& line) { return SplitLine(line, ','); }
 
 inline int Lines(const std::string& text) {
   int lines = 0;

@@ -28,26 +28,6 @@ constexpr int kEmptyFrames = 15;
 constexpr int kObjectFrames = 60;
 constexpr int kFrames = kEmptyFrames + kObjectFrames;
 
-std::vector<std::string> ReadLines(const std::string& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> Split(const std::string& line) {
-  std::vector<std::string> fields;
-  std::stringstream stream(line);
-  for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
-  return fields;
-}
-
-int Lines(const std::string& text) {
-  int count = 0;
-  for (char c : text) count += c == '\n';
-  return count;
-}
-
 // Share of the object frames (from the first frame with the object on) whose row names `object`.
 struct Rate {
   int frames = 0;
@@ -58,7 +38,7 @@ Rate RightObject(const std::string& poses, const std::string& object) {
   const std::vector<std::string> rows = ReadLines(poses);
   Rate rate;
   for (size_t r = 1; r < rows.size(); ++r) {
-    const std::vector<std::string> fields = Split(rows[r]);
+    const std::vector<std::string> fields = CsvCells(rows[r]);
     if (fields.size() < 2 || std::stoi(fields[0]) < kEmptyFrames) continue;
     ++rate.frames;
     rate.right += fields[1] == object;
@@ -213,7 +193,7 @@ TEST_F(CliTrackSegmentationTest, ConfigFileGivesTheSameResultAsTheCommandLine) {
   ASSERT_EQ(a.size(), static_cast<size_t>(kFrames + 1));
   for (size_t r = 1; r < a.size(); ++r) {
     // Same object, status and pose; only the time columns differ.
-    const std::vector<std::string> x = Split(a[r]), y = Split(b[r]);
+    const std::vector<std::string> x = CsvCells(a[r]), y = CsvCells(b[r]);
     ASSERT_EQ(x.size(), y.size());
     EXPECT_EQ(x[1], y[1]) << r;
     EXPECT_EQ(x[8], y[8]) << r;

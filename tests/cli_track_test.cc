@@ -17,21 +17,6 @@
 namespace silpose {
 namespace {
 
-std::vector<std::string> ReadLines(const std::string& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) lines.push_back(line);
-  return lines;
-}
-
-std::vector<std::string> Split(const std::string& line, char separator = ',') {
-  std::vector<std::string> fields;
-  std::stringstream stream(line);
-  for (std::string field; std::getline(stream, field, separator);) fields.push_back(field);
-  if (!line.empty() && line.back() == separator) fields.emplace_back();
-  return fields;
-}
-
 class CliTrackTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -74,10 +59,10 @@ TEST_F(CliTrackTest, ColourVideoWithBackgroundSubtractionGivesPosesAndAllOutputs
   const std::vector<std::string> rows = ReadLines(poses);
   ASSERT_EQ(rows.size(), 61u);
   EXPECT_EQ(rows[0].substr(0, 40), "frame,object,score,probability,view_x,vi");
-  ASSERT_EQ(Split(rows[0]).size(), 38u);
+  ASSERT_EQ(CsvCells(rows[0]).size(), 38u);
   int right = 0, with_pose = 0;
   for (size_t r = 1; r < rows.size(); ++r) {
-    const std::vector<std::string> fields = Split(rows[r]);
+    const std::vector<std::string> fields = CsvCells(rows[r]);
     ASSERT_EQ(fields.size(), 38u) << rows[r];
     const int frame = std::stoi(fields[0]);
     EXPECT_EQ(frame, static_cast<int>(r) - 1);
@@ -101,10 +86,10 @@ TEST_F(CliTrackTest, ColourVideoWithBackgroundSubtractionGivesPosesAndAllOutputs
   const std::vector<std::string> bop = ReadLines(Path("bop.csv"));
   ASSERT_GE(bop.size(), 50u);
   EXPECT_EQ(bop[0], "scene_id,im_id,obj_id,score,R,t,time");
-  const std::vector<std::string> fields = Split(bop.back());
+  const std::vector<std::string> fields = CsvCells(bop.back());
   ASSERT_EQ(fields.size(), 7u);
-  EXPECT_EQ(Split(fields[4], ' ').size(), 9u);
-  const std::vector<std::string> t = Split(fields[5], ' ');
+  EXPECT_EQ(SplitLine(fields[4], ' ').size(), 9u);
+  const std::vector<std::string> t = SplitLine(fields[5], ' ');
   ASSERT_EQ(t.size(), 3u);
   EXPECT_GT(std::stod(t[2]), 100.0);  // mm: the mesh units are ~0.1-1
 
@@ -149,7 +134,7 @@ TEST_F(CliTrackTest, SmoothingReportsEveryFrameInOrderWithAllOutputs) {
     ASSERT_EQ(rows.size(), 61u);
     int right = 0;
     for (size_t r = 1; r < rows.size(); ++r) {
-      const std::vector<std::string> fields = Split(rows[r]);
+      const std::vector<std::string> fields = CsvCells(rows[r]);
       ASSERT_EQ(fields.size(), 38u) << rows[r];
       const int frame = std::stoi(fields[0]);
       EXPECT_EQ(frame, static_cast<int>(r) - 1);
