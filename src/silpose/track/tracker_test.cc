@@ -946,6 +946,13 @@ TEST(Tracker, OtherPoseCheckReportsAnotherPoseOnlyWhereItFitsFarCloser) {
       ASSERT_EQ(a.result.object, b.result.object) << f;
       if (!a.other_pose_fitted) {
         ASSERT_EQ(EstimateText(a.result), EstimateText(b.result)) << f;
+        // The confidence searched the same view's other poses (with the check on it reads the
+        // check's search of this frame).
+        ASSERT_TRUE(a.confidence_features && b.confidence_features) << f;
+        const double gap_a = a.confidence_features->pose_score_gap;
+        const double gap_b = b.confidence_features->pose_score_gap;
+        EXPECT_TRUE(gap_a == gap_b || (std::isnan(gap_a) && std::isnan(gap_b)))
+            << f << ": " << gap_a << " vs " << gap_b;
         continue;
       }
       ++fitted;
