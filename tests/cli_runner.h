@@ -21,6 +21,14 @@ struct CommandResult {
   std::string err;
 };
 
+// A text file's content.
+inline std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
 // Runs `silpose <arguments>` through the shell, capturing stdout and stderr.
 inline CommandResult Silpose(const std::string& arguments) {
   static int counter = 0;
@@ -38,10 +46,7 @@ inline CommandResult Silpose(const std::string& arguments) {
     run.out.append(buffer.data(), n);
   const int status = ::pclose(pipe);
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  std::ifstream err(err_path);
-  std::stringstream text;
-  text << err.rdbuf();
-  run.err = text.str();
+  run.err = ReadText(err_path);
   std::filesystem::remove(err_path);
   return run;
 }
@@ -52,14 +57,6 @@ inline std::vector<std::string> ReadLines(const std::filesystem::path& path) {
   std::vector<std::string> lines;
   for (std::string line; std::getline(file, line);) lines.push_back(line);
   return lines;
-}
-
-// A text file's content.
-inline std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
 }
 
 // The fields of a line between `separator`s (an empty last field after a trailing separator too).

@@ -190,12 +190,11 @@ void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_
       refined.iou = ContourIou(contour, camera_, outline, kept);
     }
   }
-  if (!Improves(refined)) {
-    tracked->refinement = std::move(refined);
-    tracked->refinement->camera_from_object = pose.camera_from_object;
-    return;
-  }
-  Adopt(mesh, std::move(refined), tracked, feed_filter);
+  // Reported if it improves and Adopt takes it (its centre in front of the camera); otherwise the
+  // grid pose stays, with the refinement's fit on record.
+  if (Improves(refined) && Adopt(mesh, refined, tracked, feed_filter)) return;
+  tracked->refinement = std::move(refined);
+  tracked->refinement->camera_from_object = pose.camera_from_object;
 }
 
 std::optional<Rigid3> Tracker::MotionStart(const TrackedFrame& tracked) const {
@@ -453,8 +452,10 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     filter_->ReflectMode(result.object, old_view,
                          Eigen::Matrix3d::Identity() - 2.0 * n * n.transpose());
   }
-  // (Its centre is in front of the camera, checked above: Adopt takes it.)
-  Adopt(model.mesh, std::move(*best), tracked, feed_filter);
+  // Its centre is in front of the camera (checked above, before the filter's mode moved): Adopt
+  // takes it.
+  const bool adopted = Adopt(model.mesh, std::move(*best), tracked, feed_filter);
+  SILPOSE_ASSERT(adopted);
   if (result.view_dir_in_object) *view = database_.sphere.NearestView(*result.view_dir_in_object);
   tracked->mirror_twin_fitted = true;
   return true;
@@ -660,13 +661,12 @@ double Tracker::ComputePoseGap(int object, int view, int shell, OtherPose* other
       bound += query[k] * magnitudes[k];
     KeepLargest(&ranked_, kFarCandidates, {bound, v});
   }
-  const size_t count = ranked_.size();
   float alternative = -1.0f;
-  for (size_t c = 0; c < count; ++c) {
-    const CorrelationPeak peak = score(ranked_[c].second);
+  for (const auto& [bound, v] : ranked_) {
+    const CorrelationPeak peak = score(v);
     if (peak.score > alternative) {
       alternative = peak.score;
-      *other = {ranked_[c].second, peak.RollDeg(length)};
+      *other = {v, peak.RollDeg(length)};
     }
   }
   // The reported view at other rolls: the local maxima of its correlation, best first, beyond the

@@ -345,10 +345,14 @@ class Tracker {
     int view = -1;
     double roll_deg = 0.0;
   };
+  /// Only for the frame being processed (Process: the other-pose check and Assess), whose
+  /// spectrum frame_spectrum_ holds; its result is kept for the frame (pose_gap_cache_).
   double ScorePoseGap(int object, int view, int shell, OtherPose* other);
+  /// ScorePoseGap's search itself.
   double ComputePoseGap(int object, int view, int shell, OtherPose* other);
   /// ScorePoseGap's last result, for the frame being processed (the other-pose check and the
-  /// confidence ask for the same view when the check reports nothing).
+  /// confidence ask for the same view when the check reports nothing). Process clears it when it
+  /// makes a frame's spectrum; the frame index in the key guards the frames without one.
   struct PoseGapCache {
     int frame = -1;
     int object = -1;

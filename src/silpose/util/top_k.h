@@ -17,7 +17,7 @@ namespace top_k_internal {
 // KeepLargest's insertion, out of line: the test before it rejects most values.
 template <typename T>
 [[gnu::noinline]] void Insert(std::vector<T>* best, size_t k, const T& value) {
-  if (best->size() >= k) best->resize(k - 1);
+  if (best->size() >= k) best->pop_back();
   best->insert(std::upper_bound(best->begin(), best->end(), value, std::greater<>()), value);
 }
 
