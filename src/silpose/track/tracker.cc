@@ -160,6 +160,12 @@ double FinalFit(const ContourRefinementResult& refined) {
              : std::numeric_limits<double>::infinity();
 }
 
+// The outline distance of the better of a refinement's start and end (the fit a hypothesis is
+// compared by, whichever pose it reports).
+double BetterRms(const ContourRefinementResult& refined) {
+  return std::min(refined.final_rms_px, refined.initial_rms_px);
+}
+
 }  // namespace
 
 void Tracker::Refine(const TriangleMesh& mesh, TrackedFrame* tracked, bool feed_filter) {
@@ -319,7 +325,7 @@ bool Tracker::ArbitrateByFit(const FilterEstimate::Hypothesis& chosen,
     EstimatePose(h.view, h.shell, /*feed_filter=*/false, &frame, [] { return 0.0; });
     const std::optional<ContourRefinementResult>& fit = frame.refinement;
     if (!fit || fit->points_used < 6) return false;
-    *rms = std::min(fit->final_rms_px, fit->initial_rms_px);
+    *rms = BetterRms(*fit);
     *iou = fit->iou;
     return std::isfinite(*rms);
   };
@@ -383,7 +389,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
     return false;
   }
   const ContourRefinementResult& own = *tracked->refinement;
-  const double own_rms = std::min(own.final_rms_px, own.initial_rms_px);
+  const double own_rms = BetterRms(own);
   if (!std::isfinite(own_rms)) return false;
   const Rigid3 reported = tracked->pose->camera_from_object;
   const Eigen::Vector3d centre(model.mesh.Centre());
@@ -416,7 +422,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
         Contour(result.object), camera_, Outline(*tracked), start, options_.refinement);
     if (twin.points_used < 6) continue;
     if (!Improves(twin)) twin.camera_from_object = start;
-    const double rms = std::min(twin.final_rms_px, twin.initial_rms_px);
+    const double rms = BetterRms(twin);
     if (std::isfinite(rms) && twin_better(own_rms, own.iou, rms, twin.iou) &&
         (!best || rms < best_rms)) {
       best = std::move(twin);
@@ -434,7 +440,7 @@ bool Tracker::FitMirrorTwins(TrackedFrame* tracked, bool feed_filter, int* view)
   ContourRefinementResult back = RefinePoseToContour(
       Contour(result.object), camera_, Outline(*tracked), back_start, options_.refinement);
   if (!Improves(back)) back.camera_from_object = back_start;
-  const double back_rms = std::min(back.final_rms_px, back.initial_rms_px);
+  const double back_rms = BetterRms(back);
   if (back.points_used >= 6 && std::isfinite(back_rms) &&
       !twin_better(back_rms, back.iou, best_rms, best->iou)) {
     // Not the twin (the reported pose is kept: a refinement from elsewhere may find another
@@ -470,7 +476,7 @@ bool Tracker::FitOtherPose(TrackedFrame* tracked, int* view, int shell) {
   const ModelViews& model = database_.models[static_cast<size_t>(result.object)];
   if (model.mesh.triangles.empty()) return false;
   const ContourRefinementResult& own = *tracked->refinement;
-  const double own_rms = std::min(own.final_rms_px, own.initial_rms_px);
+  const double own_rms = BetterRms(own);
   if (!std::isfinite(own_rms)) return false;
   OtherPose other;
   const double gap = ScorePoseGap(result.object, *view, shell, &other);
