@@ -4,16 +4,26 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <string>
 
 #include "silpose/database/view_database.h"
 #include "silpose/geometry/view_sphere.h"
 #include "silpose/io/avi_file.h"
+#include "silpose/mesh/triangle_mesh.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
 namespace {
+
+std::string ReadBytes(const std::string& path) {
+  std::ifstream stream(path, std::ios::binary);
+  EXPECT_TRUE(stream) << path;
+  return {std::istreambuf_iterator<char>(stream), std::istreambuf_iterator<char>()};
+}
 
 // A database whose views have no neighbours (an empty neighbour list) read back: reading an empty
 // array passed memcpy a null pointer (undefined behaviour, reported by UBSan).
@@ -47,6 +57,26 @@ TEST(FuzzRegression, EightBitAviWithoutAPaletteIsReadOrRefused) {
     EXPECT_NE(std::string(error.what()).find("regression-8bit-without-palette.avi"),
               std::string::npos)
         << error.what();
+  }
+}
+
+// A file named .glb whose content neither glTF reader recognised: assimp then tried every reader
+// on the content, read it as a Quick3D file and asked for 1.5 TB for its materials (fatal under
+// AddressSanitizer; elsewhere a bad_alloc caught inside assimp). Now the file is refused first.
+TEST(FuzzRegression, GlbFileWithQuick3dContentIsRefusedBeforeAssimpReadsIt) {
+  const std::string input =
+      ReadBytes(std::string(SILPOSE_FUZZ_CORPUS_DIR) + "/mesh/regression-glb-read-as-quick3d");
+  ASSERT_EQ(input.substr(1, 8), "quick3do");  // byte 0 picks the extension (.glb) in the fuzzer
+  const std::filesystem::path path =
+      std::filesystem::path(::testing::TempDir()) / "regression-quick3d.glb";
+  std::ofstream(path, std::ios::binary) << input.substr(1);
+  try {
+    (void)LoadMesh(path);
+    ADD_FAILURE() << "loaded";
+  } catch (const Error& error) {
+    const std::string message = error.what();
+    EXPECT_EQ(message.rfind(path.string(), 0), 0u) << message;
+    EXPECT_NE(message.find("not that of a .glb file"), std::string::npos) << message;
   }
 }
 

@@ -1,5 +1,6 @@
 #include "silpose/mesh/triangle_mesh.h"
 
+#include <assimp/BaseImporter.h>
 #include <assimp/config.h>
 #include <assimp/mesh.h>
 #include <assimp/postprocess.h>
@@ -17,11 +18,13 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include "silpose/util/error.h"
 
@@ -616,8 +619,38 @@ void AddAssimpScene(const aiScene& scene, MeshBuilder& builder) {
   }
 }
 
+std::string LowerCaseExtension(const fs::path& path) {
+  std::string extension = path.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension;
+}
+
+// When several of assimp's readers claim a file's extension (glTF 1 and glTF 2 share .gltf and
+// .glb) and none of them recognises the content, assimp tries every reader it has on the content
+// and may read the file as some other format; a corrupt file could then be taken for, e.g., a
+// Quick3D file whose header asks for terabytes. Such a file is refused: its extension names a
+// format its content is not in.
+void CheckContentMatchesExtension(const fs::path& path, const Assimp::Importer& importer) {
+  const std::string extension = LowerCaseExtension(path);
+  if (extension.size() < 2) return;  // no extension: assimp recognises the format by content
+  std::vector<Assimp::BaseImporter*> readers;  // the readers that claim the extension
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    Assimp::BaseImporter* reader = importer.GetImporter(i);
+    if (reader == nullptr) continue;
+    std::set<std::string> extensions;
+    reader->GetExtensionList(extensions);
+    if (extensions.contains(extension.substr(1))) readers.push_back(reader);
+  }
+  if (readers.size() < 2) return;  // assimp reads the file with the one reader, or by content
+  for (Assimp::BaseImporter* reader : readers) {
+    if (reader->CanRead(path.string(), importer.GetIOHandler(), true)) return;
+  }
+  ThrowUnreadable(path, "the content is not that of a " + extension + " file");
+}
+
 void ReadWithAssimp(const fs::path& path, MeshBuilder& builder) {
   Assimp::Importer importer;  // no assimp DefaultLogger is created, so assimp prints nothing
+  CheckContentMatchesExtension(path, importer);
   // Keep the file's own axes for Collada (assimp would otherwise rotate Z-up files to Y-up). No
   // unit scaling: aiProcess_GlobalScale is not requested and FBX is not converted to metres.
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
@@ -670,12 +703,6 @@ std::string ReadFileBytes(const fs::path& path,
   if (stream.bad()) ThrowError(path.string(), ": read error");
   if (bytes.empty()) ThrowError(path.string(), ": file is empty");
   return bytes;
-}
-
-std::string LowerCaseExtension(const fs::path& path) {
-  std::string extension = path.extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension;
 }
 
 uint32_t LittleEndianU32(std::string_view bytes) {

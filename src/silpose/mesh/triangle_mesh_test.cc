@@ -655,6 +655,19 @@ TEST_F(LoadMeshTest, CorruptGlbLengths) {
   ExpectLoadError(Write("corrupt.glb", glb), "exceed the file size");
 }
 
+TEST_F(LoadMeshTest, ContentOfAnotherFormatUnderAGltfExtensionIsRefused) {
+  // Neither glTF reader recognises these; assimp would try all its readers on the content and read
+  // them as Quick3D files (one such file, found by the mesh fuzzer, asked for 1.5 TB).
+  const std::string quick3d = std::string("quick3Do") + std::string(64, '\0');
+  ExpectLoadError(Write("quick3d.glb", quick3d), "not that of a .glb file");
+  ExpectLoadError(Write("quick3d.gltf", quick3d), "not that of a .gltf file");
+  // The same content under no extension is still recognised by content (and is no mesh).
+  ExpectLoadError(Write("quick3d", quick3d), "cannot read mesh");
+  // Valid files of both glTF versions' extensions still load.
+  ExpectCube(LoadMesh(Write("cube.glb", CubeGlb())), kCubeCentre, kCubeHalfEdge);
+  ExpectCube(LoadMesh(Write("cube.gltf", CubeGltf())), kCubeCentre, kCubeHalfEdge);
+}
+
 TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
   // assimp would rotate this Z-up file to Y-up; the loader keeps the file's axes.
   const std::string dae = R"(<?xml version="1.0" encoding="utf-8"?>
