@@ -1102,7 +1102,11 @@ void BindTrack(py::module_& m) {
           "Frames tracked whose results are not out yet.")
       .def_property_readonly(
           "num_revised", [](const SmoothedTracker& s) { return s.smoother->num_revised(); },
-          "Results so far whose object or view the smoothing changed.");
+          "Results so far whose object or view the smoothing changed.")
+      .def_property_readonly(
+          "num_kept_live", [](const SmoothedTracker& s) { return s.smoother->num_kept_live(); },
+          "Results so far the smoothing would have re-posed at a pose fitting the silhouette "
+          "worse than the live one, returned as tracked.");
 
   py::class_<PosesCsvWriter>(m, "PosesWriter",
                              "Writes POSES.csv (docs/tracking.md), one row per TrackResult, as "

@@ -181,6 +181,8 @@ def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp
     unchanged = sum(a.object_name == b.object_name and a.view_dir.tolist() == b.view_dir.tolist()
                     for a, b in zip(out, plain))
     assert unchanged + smoother.num_revised == 16
+    # Frames kept as tracked because their live pose fitted better are among the unchanged ones.
+    assert isinstance(smoother.num_kept_live, int) and 0 <= smoother.num_kept_live <= unchanged
     assert all(r.object_name == "cow" for r in out[4:])
 
     offline = silpose.Smoother(database, sequence.camera, lag=silpose.Smoother.OFFLINE)

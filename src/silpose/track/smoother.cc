@@ -1,6 +1,7 @@
 #include "silpose/track/smoother.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -158,10 +159,19 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
     twin.measured = true;
     revised = tracker_.Revise(tracked, twin);
   }
-  if (revised.result.object != tracked.result.object ||
-      revised.result.view_dir_in_object != tracked.result.view_dir_in_object) {
-    ++num_revised_;
+  if (revised.result.object == tracked.result.object &&
+      revised.result.view_dir_in_object == tracked.result.view_dir_in_object) {
+    return revised;
   }
+  // Smoothing chooses among the poses that explain the frame: a pose whose model covers the
+  // frame's silhouette less well (or not measurably) than the live pose's did is not reported. A
+  // frame without a fit live (e.g. without a pose) may be re-posed.
+  if (std::isfinite(tracked.result.iou) &&
+      !(std::isfinite(revised.result.iou) && revised.result.iou >= tracked.result.iou)) {
+    ++num_kept_live_;
+    return tracked;
+  }
+  ++num_revised_;
   return revised;
 }
 

@@ -24,6 +24,12 @@
 // scores both, TrackedFrame::mirror_twin), back to the first that did not, are reported as that
 // twin: within the lag, or back to the start offline.
 //
+// The frame's own outline has the last word: a frame is re-posed only if the model at the new pose
+// covers its silhouette at least as well (IoU of the refined model silhouette with the mask) as at
+// the live pose; otherwise it is reported as tracked (num_kept_live). A particle history, or a
+// flip, can say where the object was; it cannot make a worse fit to the frame right. (Without
+// this rule smoothing made threshold-like masks' frames worse than live: docs/tracking.md.)
+//
 // Smoothing corrects the view and roll, never the object: a particle's history never leaves its
 // object, so histories cannot tell when the object in front of the camera changed; each frame is
 // smoothed among the histories of the object it was reported as. A frame whose smoothed state is
@@ -85,6 +91,9 @@ class TrackSmoother {
   int num_pending() const { return static_cast<int>(pending_.size()); }
   /// Frames returned re-posed (their hypothesis changed by the smoothing), so far.
   int num_revised() const { return num_revised_; }
+  /// Frames the smoothing would have re-posed at a pose whose model fitted their silhouette worse
+  /// (a lower IoU) than the live pose's, returned as tracked, so far.
+  int num_kept_live() const { return num_kept_live_; }
 
  private:
   struct Held {
@@ -111,6 +120,7 @@ class TrackSmoother {
   int lag_ = 0;
   std::deque<Held> pending_;
   int num_revised_ = 0;
+  int num_kept_live_ = 0;
   std::vector<ViewEquivalence> equivalence_;
   int previous_object_ = -1;
   int previous_view_ = -1;
