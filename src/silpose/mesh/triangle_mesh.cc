@@ -625,32 +625,48 @@ std::string LowerCaseExtension(const fs::path& path) {
   return extension;
 }
 
-// When several of assimp's readers claim a file's extension (glTF 1 and glTF 2 share .gltf and
-// .glb) and none of them recognises the content, assimp tries every reader it has on the content
-// and may read the file as some other format; a corrupt file could then be taken for, e.g., a
-// Quick3D file whose header asks for terabytes. Such a file is refused: its extension names a
-// format its content is not in.
-void CheckContentMatchesExtension(const fs::path& path, const Assimp::Importer& importer) {
-  const std::string extension = LowerCaseExtension(path);
-  if (extension.size() < 2) return;  // no extension: assimp recognises the format by content
-  std::vector<Assimp::BaseImporter*> readers;  // the readers that claim the extension
+// When several of assimp's readers claim a file's name (glTF 1 and glTF 2 share .gltf and .glb;
+// several XML formats share .xml) and none of them recognises the content, assimp tries every
+// reader it has on the content and may read the file as some other format: a corrupt .glb file
+// was taken for a Quick3D file whose header asked for terabytes. Such a file is refused: its name
+// says a format its content is not in. (A file of another format under a shared extension, e.g.
+// an X3D file named .xml, must be given its own extension.) The readers are found as assimp finds
+// them: a reader claims the file if its name ends, case aside, with "." and one of the reader's
+// extensions (so Ogre's .mesh.xml is its own).
+void CheckContentMatchesName(const fs::path& path, const Assimp::Importer& importer) {
+  std::string name = path.filename().string();
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::vector<Assimp::BaseImporter*> readers;  // the readers that claim the file's name
+  std::string claimed;                          // the shortest extension claimed, for the message
   for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
     Assimp::BaseImporter* reader = importer.GetImporter(i);
     if (reader == nullptr) continue;
     std::set<std::string> extensions;
     reader->GetExtensionList(extensions);
-    if (extensions.contains(extension.substr(1))) readers.push_back(reader);
+    for (std::string extension : extensions) {
+      for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (!name.ends_with("." + extension)) continue;
+      readers.push_back(reader);
+      if (claimed.empty() || extension.size() < claimed.size()) claimed = extension;
+      break;
+    }
   }
   if (readers.size() < 2) return;  // assimp reads the file with the one reader, or by content
   for (Assimp::BaseImporter* reader : readers) {
-    if (reader->CanRead(path.string(), importer.GetIOHandler(), true)) return;
+    bool recognised = false;
+    try {
+      recognised = reader->CanRead(path.string(), importer.GetIOHandler(), true);
+    } catch (const std::exception& exception) {
+      ThrowUnreadable(path, exception.what());
+    }
+    if (recognised) return;
   }
-  ThrowUnreadable(path, "the content is not that of a " + extension + " file");
+  ThrowUnreadable(path, "the content is not that of a ." + claimed + " file");
 }
 
 void ReadWithAssimp(const fs::path& path, MeshBuilder& builder) {
   Assimp::Importer importer;  // no assimp DefaultLogger is created, so assimp prints nothing
-  CheckContentMatchesExtension(path, importer);
+  CheckContentMatchesName(path, importer);
   // Keep the file's own axes for Collada (assimp would otherwise rotate Z-up files to Y-up). No
   // unit scaling: aiProcess_GlobalScale is not requested and FBX is not converted to metres.
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);

@@ -655,17 +655,38 @@ TEST_F(LoadMeshTest, CorruptGlbLengths) {
   ExpectLoadError(Write("corrupt.glb", glb), "exceed the file size");
 }
 
-TEST_F(LoadMeshTest, ContentOfAnotherFormatUnderAGltfExtensionIsRefused) {
+TEST_F(LoadMeshTest, ContentOfAnotherFormatUnderASharedExtensionIsRefused) {
   // Neither glTF reader recognises these; assimp would try all its readers on the content and read
   // them as Quick3D files (one such file, found by the mesh fuzzer, asked for 1.5 TB).
   const std::string quick3d = std::string("quick3Do") + std::string(64, '\0');
   ExpectLoadError(Write("quick3d.glb", quick3d), "not that of a .glb file");
   ExpectLoadError(Write("quick3d.gltf", quick3d), "not that of a .gltf file");
-  // The same content under no extension is still recognised by content (and is no mesh).
-  ExpectLoadError(Write("quick3d", quick3d), "cannot read mesh");
-  // Valid files of both glTF versions' extensions still load.
+  // A name that is only the extension is claimed as assimp claims it (by the name's end).
+  ExpectLoadError(Write(".glb", quick3d), "not that of a .glb file");
+  // The same content under no extension is still recognised by content, by the Quick3D reader.
+  ExpectLoadError(Write("quick3d", quick3d), "Quick3D");
+  // Valid files of both glTF versions' extensions still load, and so does a file whose name ends
+  // in an extension of several dots (Ogre's .mesh.xml, among the many readers of .xml).
   ExpectCube(LoadMesh(Write("cube.glb", CubeGlb())), kCubeCentre, kCubeHalfEdge);
   ExpectCube(LoadMesh(Write("cube.gltf", CubeGltf())), kCubeCentre, kCubeHalfEdge);
+  const std::string ogre = R"(<mesh><submeshes>
+  <submesh material="m" usesharedvertices="false" use32bitindexes="false" operationtype="triangle_list">
+    <faces count="1"><face v1="0" v2="1" v3="2"/></faces>
+    <geometry vertexcount="3"><vertexbuffer positions="true">
+      <vertex><position x="0" y="0" z="5"/></vertex>
+      <vertex><position x="1" y="0" z="5"/></vertex>
+      <vertex><position x="0" y="1" z="5"/></vertex>
+    </vertexbuffer></geometry>
+  </submesh>
+</submeshes></mesh>
+)";
+  for (const char* name : {"triangle.mesh.xml", "TRIANGLE.MESH.XML"}) {
+    const TriangleMesh mesh = LoadMesh(Write(name, ogre));
+    EXPECT_EQ(mesh.triangles.size(), 1u) << name;
+    EXPECT_EQ(mesh.vertices.size(), 3u) << name;
+  }
+  // ... but not as plain .xml: none of the .xml readers recognises it.
+  ExpectLoadError(Write("triangle.xml", ogre), "not that of a .xml file");
 }
 
 TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
