@@ -1106,7 +1106,7 @@ void BindTrack(py::module_& m) {
       .def_property_readonly(
           "num_kept_live", [](const SmoothedTracker& s) { return s.smoother->num_kept_live(); },
           "Results so far the smoothing would have re-posed at a pose fitting the silhouette "
-          "worse than the live one, returned as tracked.");
+          "worse than the live one (a lower IoU, or none measured), returned as tracked.");
 
   py::class_<PosesCsvWriter>(m, "PosesWriter",
                              "Writes POSES.csv (docs/tracking.md), one row per TrackResult, as "

@@ -247,8 +247,8 @@ void WritePlots(const TrackJob& arguments, const TrackReport& report) {
 
 void PrintSmoothing(const TrackJob& arguments, const TrackSmoother& smoother, int frames) {
   std::printf(
-      "smoothing (%s): %d of %d frames re-posed from the particle histories; %d kept as tracked, "
-      "their live pose fitting the silhouette better\n",
+      "smoothing (%s): %d of %d frames re-posed from the particle histories; %d kept as tracked "
+      "(the smoothed pose fitted the silhouette worse)\n",
       arguments.smooth ? "offline" : ("lag " + std::to_string(arguments.lag)).c_str(),
       smoother.num_revised(), frames, smoother.num_kept_live());
 }

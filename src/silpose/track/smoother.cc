@@ -143,11 +143,25 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
   if (lag_ == 0 || !tracked.estimate || !tracked.estimate->measured || tracked.estimate->object < 0)
     return tracked;
   const std::optional<PoseState> state = smoothed(tracked.result.frame, tracked.estimate->object);
+  const auto moved = [&tracked](const TrackedFrame& frame) {
+    return frame.result.object != tracked.result.object ||
+           frame.result.view_dir_in_object != tracked.result.view_dir_in_object;
+  };
+  // Smoothing chooses among the poses that explain the frame: a pose whose model covers the
+  // frame's silhouette less well than the live pose's did, or not measurably, is not reported. A
+  // frame without a fit live (e.g. without a pose) may be re-posed.
+  const auto fits_worse = [&tracked](const TrackedFrame& frame) {
+    return std::isfinite(tracked.result.iou) &&
+           !(std::isfinite(frame.result.iou) && frame.result.iou >= tracked.result.iou);
+  };
+  bool kept_live = false;
   TrackedFrame revised =
       state && state->object >= 0 && state->view >= 0 ? tracker_.Revise(tracked, *state) : tracked;
-  const bool changed = revised.result.object != tracked.result.object ||
-                       revised.result.view_dir_in_object != tracked.result.view_dir_in_object;
-  if (!changed && FlipsBack(tracked)) {
+  if (moved(revised) && fits_worse(revised)) {
+    revised = tracked;
+    kept_live = true;
+  }
+  if (!moved(revised) && FlipsBack(tracked)) {
     // The filter left this view for its mirror twin later, and the twin fitted better here.
     PoseState twin;
     twin.frame = tracked.result.frame;
@@ -157,21 +171,18 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
     twin.roll_known = true;
     twin.score = tracked.mirror_twin->score;
     twin.measured = true;
-    revised = tracker_.Revise(tracked, twin);
+    TrackedFrame flipped = tracker_.Revise(tracked, twin);
+    if (moved(flipped) && fits_worse(flipped)) {
+      kept_live = true;
+    } else {
+      revised = std::move(flipped);
+    }
   }
-  if (revised.result.object == tracked.result.object &&
-      revised.result.view_dir_in_object == tracked.result.view_dir_in_object) {
-    return revised;
-  }
-  // Smoothing chooses among the poses that explain the frame: a pose whose model covers the
-  // frame's silhouette less well (or not measurably) than the live pose's did is not reported. A
-  // frame without a fit live (e.g. without a pose) may be re-posed.
-  if (std::isfinite(tracked.result.iou) &&
-      !(std::isfinite(revised.result.iou) && revised.result.iou >= tracked.result.iou)) {
+  if (moved(revised)) {
+    ++num_revised_;
+  } else if (kept_live) {
     ++num_kept_live_;
-    return tracked;
   }
-  ++num_revised_;
   return revised;
 }
 

@@ -24,11 +24,14 @@
 // scores both, TrackedFrame::mirror_twin), back to the first that did not, are reported as that
 // twin: within the lag, or back to the start offline.
 //
-// The frame's own outline has the last word: a frame is re-posed only if the model at the new pose
-// covers its silhouette at least as well (IoU of the refined model silhouette with the mask) as at
-// the live pose; otherwise it is reported as tracked (num_kept_live). A particle history, or a
-// flip, can say where the object was; it cannot make a worse fit to the frame right. (Without
-// this rule smoothing made threshold-like masks' frames worse than live: docs/tracking.md.)
+// The frame's own outline has the last word: a frame is re-posed (by either rule) only if the model
+// at the new pose covers its silhouette at least as well (IoU of the refined model silhouette with
+// the mask) as at the live pose; otherwise, or when the new pose's IoU cannot be measured, it is
+// reported as tracked (num_kept_live). When the smoothed state is refused, the mirror-twin rule is
+// still tried. A frame without an IoU live (e.g. without a pose) may be re-posed. A particle
+// history, or a flip, can say where the object was; it cannot make a worse fit to the frame
+// right. (Without this rule smoothing made threshold-like masks' frames worse than live:
+// docs/tracking.md.)
 //
 // Smoothing corrects the view and roll, never the object: a particle's history never leaves its
 // object, so histories cannot tell when the object in front of the camera changed; each frame is
@@ -92,7 +95,7 @@ class TrackSmoother {
   /// Frames returned re-posed (their hypothesis changed by the smoothing), so far.
   int num_revised() const { return num_revised_; }
   /// Frames the smoothing would have re-posed at a pose whose model fitted their silhouette worse
-  /// (a lower IoU) than the live pose's, returned as tracked, so far.
+  /// than the live pose's (a lower IoU, or none measured), returned as tracked, so far.
   int num_kept_live() const { return num_kept_live_; }
 
  private:

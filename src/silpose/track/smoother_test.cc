@@ -28,15 +28,19 @@ const ViewDatabase& Database() {
 }
 
 // A 40-frame random walk around the cow at 3-4 degrees per frame.
+SyntheticSequence Walk(uint64_t seed, MaskQuality quality = MaskQuality::kPerfect) {
+  SequenceOptions options;
+  options.degradation.seed = seed;
+  options.degradation = WithMaskQuality(options.degradation, quality);
+  options.trajectory.kind = TrajectoryKind::kWalk;
+  options.trajectory.num_frames = 40;
+  options.trajectory.walk.seed = seed;
+  options.trajectory.walk.speed_sigma_deg = 3.0;
+  return SyntheticSequence({LoadMesh(kModels / "cow.obj")}, options);
+}
+
 const SyntheticSequence& Sequence() {
-  static const SyntheticSequence* sequence = [] {
-    SequenceOptions options;
-    options.trajectory.kind = TrajectoryKind::kWalk;
-    options.trajectory.num_frames = 40;
-    options.trajectory.walk.seed = 11;
-    options.trajectory.walk.speed_sigma_deg = 3.0;
-    return new SyntheticSequence({LoadMesh(kModels / "cow.obj")}, options);
-  }();
+  static const SyntheticSequence* sequence = new SyntheticSequence(Walk(11));
   return *sequence;
 }
 
@@ -55,11 +59,12 @@ std::string Describe(const FrameResult& result) {
   return text.str();
 }
 
-std::vector<TrackedFrame> TrackPlain(const TrackerOptions& options) {
-  Tracker tracker(Database(), Sequence().camera(), options);
+std::vector<TrackedFrame> TrackPlain(const TrackerOptions& options,
+                                     const SyntheticSequence& sequence = Sequence()) {
+  Tracker tracker(Database(), sequence.camera(), options);
   std::vector<TrackedFrame> frames;
-  for (int f = 0; f < Sequence().num_frames(); ++f)
-    frames.push_back(tracker.Process(Sequence().Generate(f).mask));
+  for (int f = 0; f < sequence.num_frames(); ++f)
+    frames.push_back(tracker.Process(sequence.Generate(f).mask));
   return frames;
 }
 
@@ -110,17 +115,21 @@ TEST(TrackSmoother, ALagReportsEachFrameThatManyFramesLateWithItsMask) {
 
 TEST(TrackSmoother, OfflineReportsEveryFrameAtTheEnd) {
   // Without refinement a re-posed frame's view is exactly the database view it was given.
+  // A walk with threshold-like masks, on which the cow's most likely history disagrees with the
+  // live estimate in some frames that it fits at least as well and in some that it fits worse
+  // (deterministic: fixed seeds; on this walk with perfect masks it never fits as well).
+  const SyntheticSequence sequence = Walk(11, MaskQuality::kThreshold);
   TrackerOptions options;
   options.refine = false;
-  const std::vector<TrackedFrame> plain = TrackPlain(options);
+  const std::vector<TrackedFrame> plain = TrackPlain(options, sequence);
   options.filter.max_history_frames = 0;
-  Tracker tracker(Database(), Sequence().camera(), options);
+  Tracker tracker(Database(), sequence.camera(), options);
   TrackSmoother smoother(tracker, TrackSmoother::kOffline);
-  for (int f = 0; f < Sequence().num_frames(); ++f)
-    EXPECT_TRUE(smoother.Process(Sequence().Generate(f).mask).empty());
-  EXPECT_EQ(smoother.num_pending(), Sequence().num_frames());
+  for (int f = 0; f < sequence.num_frames(); ++f)
+    EXPECT_TRUE(smoother.Process(sequence.Generate(f).mask).empty());
+  EXPECT_EQ(smoother.num_pending(), sequence.num_frames());
   const std::vector<TrackedFrame> reported = smoother.Finish();
-  ASSERT_EQ(reported.size(), static_cast<size_t>(Sequence().num_frames()));
+  ASSERT_EQ(reported.size(), static_cast<size_t>(sequence.num_frames()));
   const std::vector<PoseState> history = tracker.filter()->MostLikelyHistory(0, 0);
   ASSERT_EQ(history.size(), reported.size());
   const ViewEquivalence same(Database().models[0].symmetry);
@@ -158,11 +167,12 @@ TEST(TrackSmoother, OfflineReportsEveryFrameAtTheEnd) {
       ++revised;
     }
   }
-  // On this walk the history disagrees with the live estimate in some frames (deterministic:
-  // fixed seeds); each is counted.
-  EXPECT_GT(revised + kept, 0);
+  // Each way is taken, and each frame counted.
+  EXPECT_GT(revised, 0);
+  EXPECT_GT(kept, 0);
   EXPECT_GE(smoother.num_revised(), revised);
-  EXPECT_EQ(smoother.num_kept_live(), kept);
+  // (The mirror-twin rule may keep or re-pose more frames.)
+  EXPECT_GE(smoother.num_kept_live(), kept);
 }
 
 // With a colour threshold's masks a particle history often holds a pose that fits the frame worse
