@@ -632,12 +632,12 @@ std::string LowerCaseExtension(const fs::path& path) {
 // says a format its content is not in. (A file of another format under a shared extension, e.g.
 // an X3D file named .xml, must be given its own extension.) The readers are found as assimp finds
 // them: a reader claims the file if its name ends, case aside, with "." and one of the reader's
-// extensions (so Ogre's .mesh.xml is its own).
+// extensions (so Ogre's .mesh.xml is its own). Quick3D files are refused too (below).
 void CheckContentMatchesName(const fs::path& path, const Assimp::Importer& importer) {
   std::string name = path.filename().string();
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   std::vector<Assimp::BaseImporter*> readers;  // the readers that claim the file's name
-  std::string claimed;                          // the shortest extension claimed, for the message
+  std::string claimed;                         // the shortest extension claimed, for the message
   for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
     Assimp::BaseImporter* reader = importer.GetImporter(i);
     if (reader == nullptr) continue;
@@ -649,6 +649,31 @@ void CheckContentMatchesName(const fs::path& path, const Assimp::Importer& impor
       readers.push_back(reader);
       if (claimed.empty() || extension.size() < claimed.size()) claimed = extension;
       break;
+    }
+  }
+  // Quick3D: assimp's reader sizes its arrays by the counts in the file before it reads them, so
+  // a few corrupt bytes can make it ask for terabytes (refused by the allocator) or for gigabytes
+  // it then fills (which can exhaust the machine's memory). The format is not read at all: not
+  // under its own extensions, nor when assimp would recognise it by content (no reader claims the
+  // name and the Quick3D reader recognises the file).
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    Assimp::BaseImporter* reader = importer.GetImporter(i);
+    if (reader == nullptr) continue;
+    std::set<std::string> extensions;
+    reader->GetExtensionList(extensions);
+    if (!extensions.contains("q3o")) continue;
+    bool quick3d = std::find(readers.begin(), readers.end(), reader) != readers.end();
+    if (!quick3d && readers.empty()) {
+      try {
+        quick3d = reader->CanRead(path.string(), importer.GetIOHandler(), true);
+      } catch (const std::exception& exception) {
+        ThrowUnreadable(path, exception.what());
+      }
+    }
+    if (quick3d) {
+      ThrowUnreadable(path,
+                      "Quick3D files are not read (a corrupt one can exhaust the memory); convert "
+                      "the mesh to OBJ, PLY, STL or glTF");
     }
   }
   if (readers.size() < 2) return;  // assimp reads the file with the one reader, or by content

@@ -35,8 +35,9 @@ struct TriangleMesh {
 bool IsClosedSurface(const TriangleMesh& mesh);
 
 /// Loads OBJ, PLY (ASCII/binary), STL (ASCII/binary), OFF, glTF 2.0 (.gltf/.glb) and the other
-/// formats assimp reads. All meshes and nodes of the file are merged into one triangle mesh, node
-/// transforms applied, polygons triangulated; points and lines are dropped.
+/// formats assimp reads, except Quick3D (.q3o, .q3s: its reader trusts the counts in the file, so
+/// a corrupt one can exhaust the memory). All meshes and nodes of the file are merged into one
+/// triangle mesh, node transforms applied, polygons triangulated; points and lines are dropped.
 /// Throws silpose::Error naming the file if it is missing, unreadable, of an unknown format, has no
 /// triangles, or has non-finite vertex coordinates.
 TriangleMesh LoadMesh(const std::filesystem::path& path);

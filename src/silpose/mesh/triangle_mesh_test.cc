@@ -663,8 +663,8 @@ TEST_F(LoadMeshTest, ContentOfAnotherFormatUnderASharedExtensionIsRefused) {
   ExpectLoadError(Write("quick3d.gltf", quick3d), "not that of a .gltf file");
   // A name that is only the extension is claimed as assimp claims it (by the name's end).
   ExpectLoadError(Write(".glb", quick3d), "not that of a .glb file");
-  // The same content under no extension is still recognised by content, by the Quick3D reader.
-  ExpectLoadError(Write("quick3d", quick3d), "Quick3D");
+  // The same content under no extension is recognised as Quick3D, which is not read (below).
+  ExpectLoadError(Write("quick3d", quick3d), "Quick3D files are not read");
   // Valid files of both glTF versions' extensions still load, and so does a file whose name ends
   // in an extension of several dots (Ogre's .mesh.xml, among the many readers of .xml).
   ExpectCube(LoadMesh(Write("cube.glb", CubeGlb())), kCubeCentre, kCubeHalfEdge);
@@ -687,6 +687,27 @@ TEST_F(LoadMeshTest, ContentOfAnotherFormatUnderASharedExtensionIsRefused) {
   }
   // ... but not as plain .xml: none of the .xml readers recognises it.
   ExpectLoadError(Write("triangle.xml", ogre), "not that of a .xml file");
+}
+
+TEST_F(LoadMeshTest, QuickThreeDFilesAreRefusedBeforeAssimpReadsThem) {
+  // A Quick3D header (signature, version, then the counts of meshes, materials and textures)
+  // and one mesh chunk whose vertex count asks for about 1.2 GB; assimp's reader would allocate
+  // and fill them before it noticed that the file ends.
+  std::string quick3d = std::string("quick3Do") + std::string("\x01\x00", 2);
+  for (const uint32_t count : {1u, 0u, 0u})
+    quick3d += std::string(reinterpret_cast<const char*>(&count), 4);
+  quick3d += 'm';
+  const uint32_t vertices = 100'000'000u;
+  quick3d += std::string(reinterpret_cast<const char*>(&vertices), 4);
+  // Under its own extensions, and under names no reader claims (assimp recognises it by content).
+  for (const char* name : {"part.q3o", "PART.Q3S", "part", "part.xyz123"}) {
+    ExpectLoadError(Write(name, quick3d), "Quick3D files are not read");
+  }
+  // Another format's file that mentions the signature in its text still loads by its extension,
+  // and other content under a name no reader claims is still recognised by content.
+  ExpectCube(LoadMesh(Write("quick3do.obj", "# quick3Do\n" + CubeObj())), kCubeCentre,
+             kCubeHalfEdge);
+  ExpectCube(LoadMesh(Write("cube.xyz123", CubeObj())), kCubeCentre, kCubeHalfEdge);
 }
 
 TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
