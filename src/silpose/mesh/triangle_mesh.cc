@@ -568,6 +568,11 @@ const aiScene* RunAssimp(const fs::path& path, const Assimp::Importer& importer,
   }
   if (scene == nullptr) {
     const std::string reason = importer.GetErrorString();
+    // assimp catches a failed allocation and keeps only its name: say what it means.
+    if (reason == "std::bad_alloc") {
+      ThrowUnreadable(path,
+                      "the file asks for more memory than there is (a corrupt count or size?)");
+    }
     ThrowUnreadable(path, reason.empty() ? "unknown assimp error" : reason);
   }
   return scene;
@@ -765,6 +770,44 @@ void CheckGlbHeader(const fs::path& path, std::string_view head) {
   }
 }
 
+// Collada: assimp's reader of an index list (<p>, <vcount>, <v>, <h>, <int_array>) does not
+// move past a token that is not a number and keeps adding indices until the memory runs out (one
+// letter in a <p> list made it take every gigabyte it was allowed). Every token of those lists is
+// checked to be an integer first.
+void CheckColladaIndexLists(const fs::path& path, std::string_view head) {
+  if (head.find("<COLLADA") == std::string_view::npos) return;
+  const std::string text = ReadFileBytes(path);
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
+  for (const std::string_view tag : {"p", "vcount", "v", "h", "int_array"}) {
+    const std::string open = "<" + std::string(tag);
+    for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
+      const size_t after = at + open.size();
+      if (after >= text.size() || !(text[after] == '>' || is_space(text[after]))) continue;
+      const size_t start_end = text.find('>', after);
+      if (start_end == std::string::npos) return;  // assimp reports the broken XML
+      if (text[start_end - 1] == '/') continue;    // an empty element
+      const size_t content_end = std::min(text.find('<', start_end), text.size());
+      size_t k = start_end + 1;
+      while (k < content_end) {
+        while (k < content_end && is_space(text[k])) ++k;
+        const size_t token = k;
+        while (k < content_end && !is_space(text[k])) ++k;
+        if (k == token) break;
+        size_t digit = token + ((text[token] == '-' || text[token] == '+') ? 1 : 0);
+        bool integer = digit < k;
+        for (; digit < k && integer; ++digit) {
+          integer = std::isdigit(static_cast<unsigned char>(text[digit])) != 0;
+        }
+        if (!integer) {
+          ThrowUnreadable(path, "a Collada <" + std::string(tag) + "> list holds \"" +
+                                    text.substr(token, std::min<size_t>(k - token, 20)) +
+                                    "\", not an integer");
+        }
+      }
+    }
+  }
+}
+
 // Whether the file is OFF by its extension or, when the extension is not a format's, by its first
 // word (or first three letters, which is how assimp would pick its OFF reader).
 bool IsOff(const std::string& extension, std::string_view text) {
@@ -853,6 +896,7 @@ TriangleMesh LoadMesh(const fs::path& path) {
     builder.Add(ReadOff(path, ReadFileBytes(path)));
   } else {
     CheckGlbHeader(path, head);
+    CheckColladaIndexLists(path, head);
     ReadWithAssimp(path, builder);  // assimp reads the file itself (and any files it references)
   }
   if (mesh.triangles.empty()) ThrowError(path.string(), ": mesh has no triangles");

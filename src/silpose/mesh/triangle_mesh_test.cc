@@ -731,6 +731,38 @@ TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
   const TriangleMesh mesh = LoadMesh(Write("z_up.dae", dae));
   ASSERT_EQ(mesh.triangles.size(), 1u);
   ExpectBox(mesh, Eigen::Vector3d(0, 0, 5), Eigen::Vector3d(1, 1, 5));
+
+  // One letter in an index list: assimp's reader would add indices until the memory ran out.
+  const auto with = [&dae](const std::string& from, const std::string& to) {
+    std::string changed = dae;
+    const size_t at = changed.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return changed.replace(at, from.size(), to);
+  };
+  ExpectLoadError(Write("letter.dae", with("<p>0 1 2</p>", "<p>0 x 2</p>")),
+                  "a Collada <p> list holds \"x\", not an integer");
+  ExpectLoadError(Write("inf.dae", with("<p>0 1 2</p>", "<p>0 1 inf</p>")),
+                  "<p> list holds \"inf\"");
+}
+
+TEST_F(LoadMeshTest, ACountTheMemoryCannotHoldIsReportedAsSuch) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the sanitizers' allocators stop the process at such a request";
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+  GTEST_SKIP() << "the sanitizers' allocators stop the process at such a request";
+#endif
+#endif
+  // A DirectX mesh whose face count asks for about 100 GB: assimp catches the failed allocation
+  // and keeps only "std::bad_alloc"; the message says what it means.
+  const std::string x =
+      "xof 0303txt 0032\nMesh m {\n 3;\n 0.0;0.0;0.0;,\n 1.0;0.0;0.0;,\n 0.0;1.0;0.0;;\n"
+      " 4294967295;\n 3;0,1,2;;\n}\n";
+  ExpectLoadError(Write("huge.x", x), "asks for more memory than there is");
+  // The same mesh with its true face count loads.
+  std::string one = x;
+  one.replace(one.find("4294967295"), 10, "1");
+  EXPECT_EQ(LoadMesh(Write("one.x", one)).triangles.size(), 1u);
 }
 
 TriangleMesh Cube() {
