@@ -5,14 +5,20 @@
 #include <assimp/mesh.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <exception>
 #include <fstream>
@@ -217,19 +223,25 @@ Part ReadOff(const fs::path& path, std::string_view text) {
   }
   const std::optional<double> vertex_count = ParseNumber(lines[line][token]);
   const std::optional<double> face_count = ParseNumber(lines[line][token + 1]);
-  const std::optional<uint32_t> vertices = vertex_count ? ParseIndex(*vertex_count) : std::nullopt;
-  const std::optional<uint32_t> faces = face_count ? ParseIndex(*face_count) : std::nullopt;
-  if (!vertices || !faces) ThrowUnreadable(path, "OFF header has invalid vertex or face counts");
+  const std::optional<uint32_t> vertex_total =
+      vertex_count ? ParseIndex(*vertex_count) : std::nullopt;
+  const std::optional<uint32_t> face_total = face_count ? ParseIndex(*face_count) : std::nullopt;
+  if (!vertex_total || !face_total) {
+    ThrowUnreadable(path, "OFF header has invalid vertex or face counts");
+  }
+  // Plain values from here on (GCC 12 takes an optional read after the test for uninitialised).
+  const uint32_t vertices = vertex_total.value_or(0);
+  const uint32_t faces = face_total.value_or(0);
   ++line;
-  if (lines.size() - line < size_t{*vertices} + *faces) {
-    ThrowUnreadable(path, "OFF file has fewer lines than its " + std::to_string(*vertices) +
-                              " vertices and " + std::to_string(*faces) +
+  if (lines.size() - line < size_t{vertices} + faces) {
+    ThrowUnreadable(path, "OFF file has fewer lines than its " + std::to_string(vertices) +
+                              " vertices and " + std::to_string(faces) +
                               " faces need (truncated file?)");
   }
 
   Part part;
-  part.positions.reserve(*vertices);
-  for (uint32_t v = 0; v < *vertices; ++v, ++line) {
+  part.positions.reserve(vertices);
+  for (uint32_t v = 0; v < vertices; ++v, ++line) {
     const std::vector<std::string_view>& tokens = lines[line];
     Eigen::Vector3d position;
     for (int k = 0; k < 3; ++k) {
@@ -241,7 +253,7 @@ Part ReadOff(const fs::path& path, std::string_view text) {
     part.positions.push_back(position);
   }
   std::vector<uint32_t> polygon;
-  for (uint32_t f = 0; f < *faces; ++f, ++line) {
+  for (uint32_t f = 0; f < faces; ++f, ++line) {
     const std::vector<std::string_view>& tokens = lines[line];
     const std::optional<double> count = ParseNumber(tokens[0]);
     const std::optional<uint32_t> n = count ? ParseIndex(*count) : std::nullopt;
@@ -727,6 +739,177 @@ void ReadWithAssimp(const fs::path& path, MeshBuilder& builder) {
   AddAssimpScene(*scene, builder);
 }
 
+// assimp's readers of some formats (DirectX .x, Collada, X3D, its own .assbin among them) crash on
+// corrupt files inside Importer::ReadFile (a segmentation fault on an index or offset they do not
+// check, a double free, a failed internal assertion), where no check of the result can come first.
+// So assimp reads in a child process: a crash there becomes this file's error, not the caller's
+// end, and the child's address space is capped so that a file asking for absurd sizes cannot take
+// the machine's memory. The child sends back the merged mesh (or its error) through a pipe.
+
+// Whether this build runs under a sanitizer, whose allocator reserves far more address space than
+// it uses (no cap then).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
+    __has_feature(memory_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+// In the child: at most half of the machine's memory more than the address space it starts with.
+void CapReaderMemory() {
+  if (kSanitized) return;
+  const long page = sysconf(_SC_PAGESIZE);
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  if (page <= 0 || pages <= 0) return;
+  unsigned long long mapped_pages = 0;
+  if (FILE* statm = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(statm, "%llu", &mapped_pages) != 1) mapped_pages = 0;
+    std::fclose(statm);
+  }
+  const auto limit = static_cast<rlim_t>(mapped_pages * static_cast<unsigned long long>(page) +
+                                         static_cast<unsigned long long>(pages / 2) *
+                                             static_cast<unsigned long long>(page));
+  rlimit current{};
+  if (getrlimit(RLIMIT_AS, &current) != 0) return;
+  if (current.rlim_cur != RLIM_INFINITY && current.rlim_cur <= limit) return;
+  rlimit capped = current;
+  capped.rlim_cur = limit;
+  (void)setrlimit(RLIMIT_AS, &capped);
+}
+
+void WriteAll(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t written = write(fd, bytes.data(), bytes.size());
+    if (written < 0 && errno == EINTR) continue;
+    if (written <= 0) return;
+    bytes.remove_prefix(static_cast<size_t>(written));
+  }
+}
+
+std::string ReadAll(int fd) {
+  std::string bytes;
+  std::vector<char> buffer(1 << 16);
+  for (;;) {
+    const ssize_t got = read(fd, buffer.data(), buffer.size());
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) break;
+    bytes.append(buffer.data(), static_cast<size_t>(got));
+  }
+  return bytes;
+}
+
+template <typename T>
+void Append(std::string* bytes, const T& value) {
+  bytes->append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// The child's message: 0, the vertex and triangle counts (uint64) and their data; or 1 and the
+// error's text.
+std::string EncodeMesh(const TriangleMesh& mesh) {
+  std::string bytes(1, '\0');
+  Append(&bytes, static_cast<uint64_t>(mesh.vertices.size()));
+  Append(&bytes, static_cast<uint64_t>(mesh.triangles.size()));
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    for (int k = 0; k < 3; ++k) Append(&bytes, v[k]);
+  }
+  for (const std::array<uint32_t, 3>& t : mesh.triangles) {
+    for (const uint32_t i : t) Append(&bytes, i);
+  }
+  return bytes;
+}
+
+void DecodeMesh(const fs::path& path, std::string_view bytes, TriangleMesh& mesh) {
+  uint64_t counts[2] = {0, 0};
+  if (bytes.size() < 1 + sizeof(counts)) {
+    ThrowUnreadable(path, "its reader returned an incomplete mesh");
+  }
+  std::memcpy(counts, bytes.data() + 1, sizeof(counts));
+  const uint64_t body = bytes.size() - 1 - sizeof(counts);
+  if (counts[0] > body / 12 || counts[1] > body / 12 || 12 * (counts[0] + counts[1]) != body) {
+    ThrowUnreadable(path, "its reader returned an incomplete mesh");
+  }
+  const char* data = bytes.data() + 1 + sizeof(counts);
+  mesh.vertices.resize(counts[0]);
+  for (Eigen::Vector3f& v : mesh.vertices) {
+    std::memcpy(v.data(), data, 12);
+    data += 12;
+  }
+  mesh.triangles.resize(counts[1]);
+  for (std::array<uint32_t, 3>& t : mesh.triangles) {
+    std::memcpy(t.data(), data, 12);
+    data += 12;
+    for (const uint32_t i : t) {
+      if (i >= counts[0]) ThrowUnreadable(path, "its reader returned a malformed mesh");
+    }
+  }
+}
+
+void ReadWithAssimpInChild(const fs::path& path, TriangleMesh& mesh) {
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) {
+    ThrowUnreadable(path, std::string("cannot start its reader: ") + std::strerror(errno));
+  }
+  const pid_t child = fork();
+  if (child < 0) {
+    const int error = errno;
+    close(fds[0]);
+    close(fds[1]);
+    ThrowUnreadable(path, std::string("cannot start its reader: ") + std::strerror(error));
+  }
+  if (child == 0) {
+    close(fds[0]);
+    CapReaderMemory();
+    // What a crashing reader prints (glibc's or assimp's own complaint) is not the file's error,
+    // which the parent reports; a sanitizer's report is kept.
+    if (!kSanitized) {
+      const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+      if (null >= 0) (void)dup2(null, STDERR_FILENO);
+    }
+    std::string message;
+    try {
+      TriangleMesh read;
+      MeshBuilder builder(path, read);
+      ReadWithAssimp(path, builder);
+      message = EncodeMesh(read);
+    } catch (const std::exception& exception) {
+      message = std::string(1, '\1') + exception.what();
+    } catch (...) {
+      message = std::string(1, '\1') + path.string() + ": cannot read mesh: unknown error";
+    }
+    WriteAll(fds[1], message);
+    _exit(0);  // no exit handlers, no flushing of the parent's buffers
+  }
+  close(fds[1]);
+  const std::string message = ReadAll(fds[0]);
+  close(fds[0]);
+  int status = 0;
+  pid_t waited;
+  do {
+    waited = waitpid(child, &status, 0);
+  } while (waited < 0 && errno == EINTR);
+  if (waited == child && WIFSIGNALED(status)) {
+    const int signal = WTERMSIG(status);
+    const char* name = sigabbrev_np(signal);
+    ThrowUnreadable(path, "the reader of its format crashed on it (SIG" +
+                              std::string(name != nullptr ? name : std::to_string(signal)) +
+                              "); the file is probably corrupt");
+  }
+  if (message.empty() || (waited == child && (!WIFEXITED(status) || WEXITSTATUS(status) != 0))) {
+    ThrowUnreadable(
+        path, "the reader of its format failed on it (exit status " +
+                  std::to_string(waited == child && WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
+                  "); the file is probably corrupt");
+  }
+  if (message[0] == '\1') ThrowError(message.substr(1));  // the child's error names the file
+  DecodeMesh(path, message, mesh);
+}
+
 // The first `max_bytes` bytes of the file (all of it by default).
 std::string ReadFileBytes(const fs::path& path,
                           size_t max_bytes = std::numeric_limits<size_t>::max()) {
@@ -779,7 +962,8 @@ void CheckColladaIndexLists(const fs::path& path, std::string_view head) {
   const std::string text = ReadFileBytes(path);
   const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
   for (const std::string_view tag : {"p", "vcount", "v", "h", "int_array"}) {
-    const std::string open = "<" + std::string(tag);
+    std::string open(1, '<');
+    open.append(tag);
     for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
       const size_t after = at + open.size();
       if (after >= text.size() || !(text[after] == '>' || is_space(text[after]))) continue;
@@ -799,9 +983,10 @@ void CheckColladaIndexLists(const fs::path& path, std::string_view head) {
           integer = std::isdigit(static_cast<unsigned char>(text[digit])) != 0;
         }
         if (!integer) {
-          ThrowUnreadable(path, "a Collada <" + std::string(tag) + "> list holds \"" +
-                                    text.substr(token, std::min<size_t>(k - token, 20)) +
-                                    "\", not an integer");
+          std::string reason = "a Collada <";
+          reason.append(tag).append("> list holds \"");
+          reason.append(text, token, std::min<size_t>(k - token, 20)).append("\", not an integer");
+          ThrowUnreadable(path, reason);
         }
       }
     }
@@ -897,7 +1082,8 @@ TriangleMesh LoadMesh(const fs::path& path) {
   } else {
     CheckGlbHeader(path, head);
     CheckColladaIndexLists(path, head);
-    ReadWithAssimp(path, builder);  // assimp reads the file itself (and any files it references)
+    // assimp reads the file itself (and any files it references), in a child process.
+    ReadWithAssimpInChild(path, mesh);
   }
   if (mesh.triangles.empty()) ThrowError(path.string(), ": mesh has no triangles");
   for (const std::array<uint32_t, 3>& triangle : mesh.triangles) {

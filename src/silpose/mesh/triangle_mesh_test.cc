@@ -745,6 +745,24 @@ TEST_F(LoadMeshTest, ColladaKeepsItsUpAxis) {
                   "<p> list holds \"inf\"");
 }
 
+TEST_F(LoadMeshTest, AReaderThatCrashesOnAFileMakesThatFilesError) {
+  // One "-1" too many at the end of an X3D face list: assimp's X3D reader frees a face twice and
+  // the process would end (SIGABRT). assimp reads in a child process, so the crash is the file's
+  // error (under AddressSanitizer the child reports the double free and exits instead).
+  const std::string x3d =
+      "<?xml version='1.0' encoding='UTF-8'?>\n<X3D profile='Interchange' version='3.3'><Scene>"
+      "<Shape><IndexedFaceSet coordIndex='0 1 2 -1 -1'><Coordinate point='0 0 5 1 0 5 0 1 5'/>"
+      "</IndexedFaceSet></Shape></Scene></X3D>\n";
+  ExpectLoadError(Write("double_free.x3d", x3d), "the reader of its format");
+  ExpectLoadError(Write("double_free_again.x3d", x3d), "the file is probably corrupt");
+  // The caller goes on: the same file without the extra "-1" loads, through the same child.
+  std::string valid = x3d;
+  valid.replace(valid.find(" -1 -1'"), 7, " -1'");
+  const TriangleMesh mesh = LoadMesh(Write("triangle.x3d", valid));
+  ASSERT_EQ(mesh.triangles.size(), 1u);
+  ExpectBox(mesh, Eigen::Vector3d(0, 0, 5), Eigen::Vector3d(1, 1, 5));
+}
+
 TEST_F(LoadMeshTest, ACountTheMemoryCannotHoldIsReportedAsSuch) {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "the sanitizers' allocators stop the process at such a request";
