@@ -851,16 +851,18 @@ void DecodeMesh(const fs::path& path, std::string_view bytes, TriangleMesh& mesh
 }
 
 void ReadWithAssimpInChild(const fs::path& path, TriangleMesh& mesh) {
+  // Without a child process (none can be made now), assimp reads here, as it would anyway.
+  const auto read_here = [&] {
+    MeshBuilder builder(path, mesh);
+    ReadWithAssimp(path, builder);
+  };
   int fds[2];
-  if (pipe2(fds, O_CLOEXEC) != 0) {
-    ThrowUnreadable(path, std::string("cannot start its reader: ") + std::strerror(errno));
-  }
+  if (pipe2(fds, O_CLOEXEC) != 0) return read_here();
   const pid_t child = fork();
   if (child < 0) {
-    const int error = errno;
     close(fds[0]);
     close(fds[1]);
-    ThrowUnreadable(path, std::string("cannot start its reader: ") + std::strerror(error));
+    return read_here();
   }
   if (child == 0) {
     close(fds[0]);

@@ -38,8 +38,10 @@ bool IsClosedSurface(const TriangleMesh& mesh);
 /// formats assimp reads, except Quick3D (.q3o, .q3s: its reader trusts the counts in the file, so
 /// a corrupt one can exhaust the memory). All meshes and nodes of the file are merged into one
 /// triangle mesh, node transforms applied, polygons triangulated; points and lines are dropped.
-/// Throws silpose::Error naming the file if it is missing, unreadable, of an unknown format, has no
-/// triangles, or has non-finite vertex coordinates.
+/// PLY and OFF are read by silpose, the other formats by assimp in a child process (fork), so that
+/// a reader that crashes on a corrupt file, or asks for more than half of the machine's memory,
+/// makes that file's error. Throws silpose::Error naming the file if it is missing, unreadable, of
+/// an unknown format, has no triangles, or has non-finite vertex coordinates.
 TriangleMesh LoadMesh(const std::filesystem::path& path);
 
 }  // namespace silpose
