@@ -867,12 +867,10 @@ void ReadWithAssimpInChild(const fs::path& path, TriangleMesh& mesh) {
   if (child == 0) {
     close(fds[0]);
     CapReaderMemory();
-    // What a crashing reader prints (glibc's or assimp's own complaint) is not the file's error,
-    // which the parent reports; a sanitizer's report is kept.
-    if (!kSanitized) {
-      const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
-      if (null >= 0) (void)dup2(null, STDERR_FILENO);
-    }
+    // What a crashing reader prints (glibc's, assimp's or a sanitizer's report) is not the
+    // file's error, which the parent reports.
+    const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (null >= 0) (void)dup2(null, STDERR_FILENO);
     std::string message;
     try {
       TriangleMesh read;
