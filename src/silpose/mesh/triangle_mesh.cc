@@ -655,11 +655,13 @@ void CheckContentMatchesName(const fs::path& path, const Assimp::Importer& impor
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   std::vector<Assimp::BaseImporter*> readers;  // the readers that claim the file's name
   std::string claimed;                         // the shortest extension claimed, for the message
+  Assimp::BaseImporter* quick3d_reader = nullptr;
   for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
     Assimp::BaseImporter* reader = importer.GetImporter(i);
     if (reader == nullptr) continue;
     std::set<std::string> extensions;
     reader->GetExtensionList(extensions);
+    if (extensions.contains("q3o")) quick3d_reader = reader;
     for (std::string extension : extensions) {
       for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       if (!name.ends_with("." + extension)) continue;
@@ -673,16 +675,11 @@ void CheckContentMatchesName(const fs::path& path, const Assimp::Importer& impor
   // it then fills (which can exhaust the machine's memory). The format is not read at all: not
   // under its own extensions, nor when assimp would recognise it by content (no reader claims the
   // name and the Quick3D reader recognises the file).
-  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
-    Assimp::BaseImporter* reader = importer.GetImporter(i);
-    if (reader == nullptr) continue;
-    std::set<std::string> extensions;
-    reader->GetExtensionList(extensions);
-    if (!extensions.contains("q3o")) continue;
-    bool quick3d = std::find(readers.begin(), readers.end(), reader) != readers.end();
+  if (quick3d_reader != nullptr) {
+    bool quick3d = std::find(readers.begin(), readers.end(), quick3d_reader) != readers.end();
     if (!quick3d && readers.empty()) {
       try {
-        quick3d = reader->CanRead(path.string(), importer.GetIOHandler(), true);
+        quick3d = quick3d_reader->CanRead(path.string(), importer.GetIOHandler(), true);
       } catch (const std::exception& exception) {
         ThrowUnreadable(path, exception.what());
       }
@@ -804,23 +801,16 @@ std::string ReadAll(int fd) {
   return bytes;
 }
 
-template <typename T>
-void Append(std::string* bytes, const T& value) {
-  bytes->append(reinterpret_cast<const char*>(&value), sizeof(T));
-}
+// The child's message: 0, the vertex and triangle counts (uint64) and their data as the mesh holds
+// them; or 1 and the error's text.
+static_assert(sizeof(Eigen::Vector3f) == 12 && sizeof(std::array<uint32_t, 3>) == 12);
 
-// The child's message: 0, the vertex and triangle counts (uint64) and their data; or 1 and the
-// error's text.
 std::string EncodeMesh(const TriangleMesh& mesh) {
+  const uint64_t counts[2] = {mesh.vertices.size(), mesh.triangles.size()};
   std::string bytes(1, '\0');
-  Append(&bytes, static_cast<uint64_t>(mesh.vertices.size()));
-  Append(&bytes, static_cast<uint64_t>(mesh.triangles.size()));
-  for (const Eigen::Vector3f& v : mesh.vertices) {
-    for (int k = 0; k < 3; ++k) Append(&bytes, v[k]);
-  }
-  for (const std::array<uint32_t, 3>& t : mesh.triangles) {
-    for (const uint32_t i : t) Append(&bytes, i);
-  }
+  bytes.append(reinterpret_cast<const char*>(counts), sizeof(counts));
+  bytes.append(reinterpret_cast<const char*>(mesh.vertices.data()), 12 * counts[0]);
+  bytes.append(reinterpret_cast<const char*>(mesh.triangles.data()), 12 * counts[1]);
   return bytes;
 }
 
@@ -836,14 +826,10 @@ void DecodeMesh(const fs::path& path, std::string_view bytes, TriangleMesh& mesh
   }
   const char* data = bytes.data() + 1 + sizeof(counts);
   mesh.vertices.resize(counts[0]);
-  for (Eigen::Vector3f& v : mesh.vertices) {
-    std::memcpy(v.data(), data, 12);
-    data += 12;
-  }
+  std::memcpy(mesh.vertices.data(), data, 12 * counts[0]);
   mesh.triangles.resize(counts[1]);
-  for (std::array<uint32_t, 3>& t : mesh.triangles) {
-    std::memcpy(t.data(), data, 12);
-    data += 12;
+  std::memcpy(mesh.triangles.data(), data + 12 * counts[0], 12 * counts[1]);
+  for (const std::array<uint32_t, 3>& t : mesh.triangles) {
     for (const uint32_t i : t) {
       if (i >= counts[0]) ThrowUnreadable(path, "its reader returned a malformed mesh");
     }
