@@ -13,11 +13,43 @@
 #include <unordered_set>
 
 #include "silpose/geometry/view_frame.h"
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 #include "silpose/util/top_k.h"
 
 namespace silpose {
 namespace {
+
+// ranking[v] = sum over k < harmonics of query[k] table[k * views + v]: the proposal's ranking of
+// an object's views, row by row (each view's sum in the order of k, whatever the vector width).
+SILPOSE_ALWAYS_INLINE void RankViewsBody(const float* table, size_t harmonics, size_t views,
+                                         const float* query, float* ranking) {
+  std::fill(ranking, ranking + views, 0.0f);
+  for (size_t k = 0; k < harmonics; ++k) {
+    const float q = query[k];
+    const float* row = table + k * views;
+    for (size_t v = 0; v < views; ++v) ranking[v] += q * row[v];
+  }
+}
+
+void RankViewsBaseline(const float* table, size_t harmonics, size_t views, const float* query,
+                       float* ranking) {
+  RankViewsBody(table, harmonics, views, query, ranking);
+}
+
+SILPOSE_TARGET_AVX2 void RankViewsAvx2(const float* table, size_t harmonics, size_t views,
+                                       const float* query, float* ranking) {
+  RankViewsBody(table, harmonics, views, query, ranking);
+}
+
+void RankViews(const float* table, size_t harmonics, size_t views, const float* query,
+               float* ranking) {
+  if (Avx2Enabled()) {
+    RankViewsAvx2(table, harmonics, views, query, ranking);
+  } else {
+    RankViewsBaseline(table, harmonics, views, query, ranking);
+  }
+}
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 }  // namespace
 
@@ -164,8 +196,9 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
       }
     }
     // One more row: the square root of the energy beyond the ranked harmonics (BestViewsOfObject).
+    const auto views = static_cast<size_t>(num_views_);
     ranking_table_.assign(static_cast<size_t>(num_objects_),
-                          Eigen::MatrixXf::Zero(ranking_harmonics_ + 1, num_views_));
+                          std::vector<float>((static_cast<size_t>(ranking_harmonics_) + 1) * views));
     const size_t half = static_cast<size_t>(spectra.signature_length() / 2 + 1);
     for (int m = 0; m < num_objects_; ++m) {
       for (int v = 0; v < num_views_; ++v) {
@@ -175,9 +208,11 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
         for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
           const float value = magnitudes[static_cast<size_t>(k)];
           valid = valid && value >= 0.0f && value <= 1.0f;  // false for NaN too
-          ranking_table_[static_cast<size_t>(m)](k, v) = value;
+          ranking_table_[static_cast<size_t>(m)][static_cast<size_t>(k) * views +
+                                                 static_cast<size_t>(v)] = value;
         }
-        ranking_table_[static_cast<size_t>(m)](ranking_harmonics_, v) =
+        ranking_table_[static_cast<size_t>(m)][static_cast<size_t>(ranking_harmonics_) * views +
+                                               static_cast<size_t>(v)] =
             TailEnergyRoot(magnitudes, static_cast<size_t>(ranking_harmonics_), half);
         // Stored magnitudes are read in place unchecked: Get checks the view's values (and throws
         // for a corrupt file).
@@ -891,19 +926,20 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   // ranking are correlated exactly.
   const size_t half = frame.coefficients.size();
   const auto harmonics = static_cast<size_t>(ranking_harmonics_);
-  Eigen::VectorXf frame_magnitudes(ranking_harmonics_ + 1);
-  frame_magnitudes_.resize(harmonics);
+  frame_magnitudes_.resize(2 * harmonics);
+  float* const weighted = frame_magnitudes_.data() + harmonics;
   for (size_t k = 0; k < harmonics; ++k) {
     frame_magnitudes_[k] = std::abs(frame.coefficients[k]);
     const float weight = (k == 0 || k == half - 1) ? 1.0f : 2.0f;
-    frame_magnitudes[static_cast<Eigen::Index>(k)] = weight * frame_magnitudes_[k];
+    weighted[k] = weight * frame_magnitudes_[k];
   }
-  // The product gives the first bound (the tail row times 0); the tails are added below.
-  frame_magnitudes[ranking_harmonics_] = 0.0f;
-  const float frame_tail = TailEnergyRoot(frame_magnitudes_, harmonics, half);
-  const Eigen::MatrixXf& table = ranking_table_[static_cast<size_t>(object)];
-  ranking_.resize(num_views_);
-  ranking_.noalias() = table.transpose() * frame_magnitudes;
+  const float frame_tail =
+      TailEnergyRoot(std::span<const float>(frame_magnitudes_.data(), harmonics), harmonics, half);
+  const std::vector<float>& table = ranking_table_[static_cast<size_t>(object)];
+  const auto views = static_cast<size_t>(num_views_);
+  ranking_.resize(views);
+  RankViews(table.data(), harmonics, views, weighted, ranking_.data());
+  const float* const tails = table.data() + harmonics * views;
   // Both rankings' leaders in one pass over the usable views: each list keeps its `ranked` best
   // (value, view) pairs in decreasing order (ties: the higher view first), as a partial sort of
   // all of them would, with one comparison for most views.
@@ -912,9 +948,9 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   tail_bounds_.clear();
   for (int v = 0; v < num_views_; ++v) {
     if (!spectra_.Usable(object, v)) continue;
-    KeepLargest(&bounds_, ranked, {ranking_[v], v});
+    KeepLargest(&bounds_, ranked, {ranking_[static_cast<size_t>(v)], v});
     KeepLargest(&tail_bounds_, ranked,
-                {ranking_[v] + frame_tail * table(ranking_harmonics_, v), v});
+                {ranking_[static_cast<size_t>(v)] + frame_tail * tails[v], v});
   }
   candidate_views_.clear();
   for (const std::vector<std::pair<float, int>>* ranking : {&bounds_, &tail_bounds_}) {

@@ -649,11 +649,12 @@ class ParticleFilter {
   std::vector<int32_t> group_members_;
   std::vector<CorrelationPeak> group_peaks_;
   /// Harmonics used to rank views for guided reseeding, and per object their magnitudes and, in
-  /// one more row, the root of each view's energy beyond them ((harmonics + 1) x views).
+  /// one more row, the root of each view's energy beyond them: (harmonics + 1) rows of one value
+  /// per view, row k at [k * views, (k + 1) * views).
   static constexpr Eigen::Index kRankingHarmonics = 32;
   Eigen::Index ranking_harmonics_ = 0;
-  std::vector<Eigen::MatrixXf> ranking_table_;
-  Eigen::VectorXf ranking_;
+  std::vector<std::vector<float>> ranking_table_;
+  std::vector<float> ranking_;
   std::vector<std::pair<float, int>> bounds_;
   std::vector<std::pair<float, int>> tail_bounds_;
   std::vector<float> frame_magnitudes_;

@@ -15,6 +15,7 @@
 
 #include "silpose/database/database_builder.h"
 #include "silpose/geometry/view_frame.h"
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -905,6 +906,52 @@ TEST_F(ParticleFilterTest, WithoutHistoryTheEstimatesAreTheSameAndNoHistoryIsKep
     EXPECT_FALSE(none->SmoothedState(recent).has_value());
     EXPECT_EQ(none->CountLiveHistoryNodes(), 0);
   }
+}
+
+TEST_F(ParticleFilterTest, TheAvx2AndBaselineBuildsOfTheInnerLoopsGiveTheSameEstimates) {
+  // The correlation's evaluation, the proposal's ranking and the mask scans have an AVX2 build
+  // (util/cpu_features.h) that must not change a result: every estimate and particle bit for bit,
+  // with a fixed and an adaptive count, through proposals, resampling and a switch of object.
+  const bool had_avx2 = Avx2Enabled();
+  if (!SetAvx2Enabled(true)) GTEST_SKIP() << "this processor has no AVX2";
+  std::vector<TruePose> path = SmoothPath(93, 1, 12);
+  const std::vector<TruePose> other = SmoothPath(94, 2, 8);
+  path.insert(path.end(), other.begin(), other.end());
+  for (const bool adaptive : {false, true}) {
+    SCOPED_TRACE(adaptive ? "adaptive" : "fixed count");
+    auto run = [&](bool avx2) {
+      SetAvx2Enabled(avx2);
+      ParticleFilterOptions options;
+      options.seed = 11;
+      options.adaptive = adaptive;
+      auto filter = std::make_unique<ParticleFilter>(Sphere(), *spectra_, options);
+      std::vector<FilterEstimate> estimates;
+      for (const TruePose& pose : path) estimates.push_back(filter->Step(Signature(pose)));
+      return std::pair{std::move(filter), estimates};
+    };
+    const auto [vector_filter, vector_estimates] = run(true);
+    const auto [baseline_filter, baseline_estimates] = run(false);
+    ASSERT_EQ(vector_estimates.size(), baseline_estimates.size());
+    for (size_t t = 0; t < vector_estimates.size(); ++t) {
+      EXPECT_EQ(vector_estimates[t].object, baseline_estimates[t].object) << "frame " << t;
+      EXPECT_EQ(vector_estimates[t].view, baseline_estimates[t].view) << "frame " << t;
+      EXPECT_EQ(vector_estimates[t].roll_deg, baseline_estimates[t].roll_deg) << "frame " << t;
+      EXPECT_EQ(vector_estimates[t].score, baseline_estimates[t].score) << "frame " << t;
+      EXPECT_EQ(vector_estimates[t].object_probability, baseline_estimates[t].object_probability)
+          << "frame " << t;
+    }
+    ASSERT_EQ(vector_filter->particles().size(), baseline_filter->particles().size());
+    for (size_t i = 0; i < vector_filter->particles().size(); ++i) {
+      EXPECT_EQ(vector_filter->particles()[i].view, baseline_filter->particles()[i].view);
+      EXPECT_EQ(vector_filter->particles()[i].roll_deg, baseline_filter->particles()[i].roll_deg);
+      EXPECT_EQ(vector_filter->particles()[i].score, baseline_filter->particles()[i].score);
+      EXPECT_EQ(vector_filter->particles()[i].weight, baseline_filter->particles()[i].weight);
+    }
+    // The run found the objects, so the loops compared did real work.
+    EXPECT_EQ(vector_estimates[11].object, 1);
+    EXPECT_EQ(vector_estimates.back().object, 2);
+  }
+  SetAvx2Enabled(had_avx2);
 }
 
 TEST_F(ParticleFilterTest, InvalidOptionsAndForeignSpectraAreErrors) {

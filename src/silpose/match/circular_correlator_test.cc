@@ -7,6 +7,7 @@
 #include <random>
 
 #include "silpose/geometry/view_frame.h"
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -317,6 +318,47 @@ TEST_P(CorrelatorTest, ConstantSignaturesCorrelateToZero) {
   EXPECT_FALSE(flat.has_variance);
   const CorrelationPeak peak = correlator.Peak(flat, correlator.Transform(SmoothSignature(1, 100)));
   EXPECT_EQ(peak.score, 0.0f);
+}
+
+TEST_P(CorrelatorTest, TheAvx2AndBaselineBuildsCorrelateAlike) {
+  // The conjugate products and the band-limited evaluation have an AVX2 build
+  // (util/cpu_features.h): the correlation, the global peak and the local peaks must be the
+  // baseline's bit for bit.
+  const bool had_avx2 = Avx2Enabled();
+  if (!SetAvx2Enabled(true)) GTEST_SKIP() << "this processor has no AVX2";
+  const int length = 1000;
+  CircularCorrelator correlator(length, GetParam());
+  const SignatureSpectrum reference = correlator.Transform(SmoothSignature(41, length));
+  const SignatureSpectrum query = correlator.Transform(SmoothSignature(42, length, 123.4));
+  const std::vector<double> starts = {0.0, 120.0, 333.3, 990.0};
+  auto run = [&](bool avx2, std::vector<float>* correlation, CorrelationPeak* peak,
+                 std::vector<CorrelationPeak>* local) {
+    SetAvx2Enabled(avx2);
+    correlation->resize(static_cast<size_t>(length));
+    correlator.Correlate(query, reference, *correlation);
+    *peak = correlator.Peak(query, reference);
+    local->resize(starts.size());
+    correlator.LocalPeaks(query, reference, starts, 20.0, *local);
+  };
+  std::vector<float> vector_correlation;
+  std::vector<float> baseline_correlation;
+  CorrelationPeak vector_peak;
+  CorrelationPeak baseline_peak;
+  std::vector<CorrelationPeak> vector_local;
+  std::vector<CorrelationPeak> baseline_local;
+  run(true, &vector_correlation, &vector_peak, &vector_local);
+  run(false, &baseline_correlation, &baseline_peak, &baseline_local);
+  SetAvx2Enabled(had_avx2);
+  EXPECT_EQ(vector_correlation, baseline_correlation);
+  EXPECT_EQ(vector_peak.score, baseline_peak.score);
+  EXPECT_EQ(vector_peak.shift_bins, baseline_peak.shift_bins);
+  for (size_t i = 0; i < starts.size(); ++i) {
+    EXPECT_EQ(vector_local[i].score, baseline_local[i].score) << "start " << starts[i];
+    EXPECT_EQ(vector_local[i].shift_bins, baseline_local[i].shift_bins) << "start " << starts[i];
+  }
+  // Not a trivial case: the correlation varies and the peak lies between bins.
+  EXPECT_GT(vector_peak.score, 0.0f);
+  EXPECT_NE(vector_peak.shift_bins, std::round(vector_peak.shift_bins));
 }
 
 TEST_P(CorrelatorTest, WrongLengthIsAnError) {

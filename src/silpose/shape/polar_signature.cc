@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -36,7 +37,7 @@ const std::vector<Eigen::Vector2d>& RayDirections(int length) {
 // Whether any of the bytes [begin, end) is not zero. A plain loop over the bytes without an early
 // exit: the compiler turns it into vector instructions (16 bytes at a time with SSE2), which an
 // eight-byte word loop did not get.
-bool AnyNonZero(const uint8_t* begin, const uint8_t* end) {
+SILPOSE_ALWAYS_INLINE bool AnyNonZero(const uint8_t* begin, const uint8_t* end) {
   const auto n = static_cast<size_t>(end - begin);
   uint8_t any = 0;
   for (size_t i = 0; i < n; ++i) any |= begin[i];
@@ -47,7 +48,7 @@ bool AnyNonZero(const uint8_t* begin, const uint8_t* end) {
 constexpr ptrdiff_t kBlock = 32;
 
 // The first non-zero byte of [begin, end), or end.
-const uint8_t* FirstNonZero(const uint8_t* begin, const uint8_t* end) {
+SILPOSE_ALWAYS_INLINE const uint8_t* FirstNonZero(const uint8_t* begin, const uint8_t* end) {
   while (end - begin >= kBlock && !AnyNonZero(begin, begin + kBlock)) begin += kBlock;
   for (; begin < end; ++begin) {
     if (*begin != 0) return begin;
@@ -56,7 +57,7 @@ const uint8_t* FirstNonZero(const uint8_t* begin, const uint8_t* end) {
 }
 
 // The last non-zero byte of [begin, end), or end.
-const uint8_t* LastNonZero(const uint8_t* begin, const uint8_t* end) {
+SILPOSE_ALWAYS_INLINE const uint8_t* LastNonZero(const uint8_t* begin, const uint8_t* end) {
   const uint8_t* p = end;
   while (p - begin >= kBlock && !AnyNonZero(p - kBlock, p)) p -= kBlock;
   while (p > begin) {
@@ -66,9 +67,7 @@ const uint8_t* LastNonZero(const uint8_t* begin, const uint8_t* end) {
   return end;
 }
 
-}  // namespace
-
-cv::Rect NonZeroBoundingBox(const cv::Mat& mask) {
+SILPOSE_ALWAYS_INLINE cv::Rect NonZeroBoundingBoxBody(const cv::Mat& mask) {
   SILPOSE_ASSERT(mask.type() == CV_8UC1);
   int top = -1;
   int bottom = -1;
@@ -90,6 +89,18 @@ cv::Rect NonZeroBoundingBox(const cv::Mat& mask) {
   return {left, top, right - left + 1, bottom - top + 1};
 }
 
+cv::Rect NonZeroBoundingBoxBaseline(const cv::Mat& mask) { return NonZeroBoundingBoxBody(mask); }
+
+SILPOSE_TARGET_AVX2 cv::Rect NonZeroBoundingBoxAvx2(const cv::Mat& mask) {
+  return NonZeroBoundingBoxBody(mask);
+}
+
+}  // namespace
+
+cv::Rect NonZeroBoundingBox(const cv::Mat& mask) {
+  return Avx2Enabled() ? NonZeroBoundingBoxAvx2(mask) : NonZeroBoundingBoxBaseline(mask);
+}
+
 namespace {
 
 // The number of non-zero pixels of a mask and the sums of their column and row indices.
@@ -101,7 +112,7 @@ struct PixelMoments {
 
 // PixelMoments of a mask. RowSum is wide enough for the sum of the column indices of one row.
 template <typename RowSum>
-PixelMoments PixelSums(const cv::Mat& mask) {
+SILPOSE_ALWAYS_INLINE PixelMoments PixelSums(const cv::Mat& mask) {
   PixelMoments moments;
   for (int y = 0; y < mask.rows; ++y) {
     const uint8_t* row = mask.ptr<uint8_t>(y);
@@ -119,9 +130,20 @@ PixelMoments PixelSums(const cv::Mat& mask) {
   return moments;
 }
 
-PixelMoments ComputePixelMoments(const cv::Mat& mask) {
+SILPOSE_ALWAYS_INLINE PixelMoments PixelMomentsBody(const cv::Mat& mask) {
   // 0 + 1 + ... + 46340 still fits 32 bits.
   return mask.cols <= 46340 ? PixelSums<int32_t>(mask) : PixelSums<int64_t>(mask);
+}
+
+PixelMoments PixelMomentsBaseline(const cv::Mat& mask) { return PixelMomentsBody(mask); }
+
+SILPOSE_TARGET_AVX2 PixelMoments PixelMomentsAvx2(const cv::Mat& mask) {
+  return PixelMomentsBody(mask);
+}
+
+// Integer sums: the two builds give the same moments.
+PixelMoments ComputePixelMoments(const cv::Mat& mask) {
+  return Avx2Enabled() ? PixelMomentsAvx2(mask) : PixelMomentsBaseline(mask);
 }
 
 // The area and centre of gravity (pixel centres at integer coordinates) from the moments.

@@ -10,6 +10,7 @@
 
 #include "silpose/geometry/view_frame.h"
 #include "silpose/match/circular_correlator.h"
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -325,12 +326,11 @@ TEST(PolarSignature, NonBinaryMasksCountEveryNonZeroPixel) {
   EXPECT_EQ(ExtractSignature(a).signature.radii, ExtractSignature(b).signature.radii);
 }
 
-TEST(PolarSignature, NonZeroBoundingBoxIsOpenCVsOnEveryLayout) {
-  // Widths that are and are not multiples of the 32-byte blocks scanned at once, objects touching
-  // every edge, single pixels, views into a larger image (rows not contiguous).
+// NonZeroBoundingBox against OpenCV on random masks and layouts.
+void ExpectBoundingBoxesAreOpenCVs() {
   cv::RNG rng(7);
   for (int trial = 0; trial < 300; ++trial) {
-    const int width = 1 + rng.uniform(0, 70);
+    const int width = 1 + rng.uniform(0, trial % 2 == 0 ? 70 : 150);
     const int height = 1 + rng.uniform(0, 40);
     cv::Mat canvas = cv::Mat::zeros(height + 6, width + 9, CV_8UC1);
     cv::Mat mask = canvas(cv::Rect(4, 3, width, height));
@@ -349,6 +349,48 @@ TEST(PolarSignature, NonZeroBoundingBoxIsOpenCVsOnEveryLayout) {
         << width << " x " << height << ", trial " << trial;
   }
 }
+
+TEST(PolarSignature, NonZeroBoundingBoxIsOpenCVsOnEveryLayout) {
+  // Widths that are and are not multiples of the 32-byte blocks scanned at once, objects touching
+  // every edge, single pixels, views into a larger image (rows not contiguous); with the baseline
+  // build of the scan and, where the processor has it, the AVX2 build (util/cpu_features.h).
+  const bool had_avx2 = Avx2Enabled();
+  for (const bool avx2 : {false, true}) {
+    if (SetAvx2Enabled(avx2) != avx2) continue;
+    SCOPED_TRACE(avx2 ? "AVX2" : "baseline");
+    ExpectBoundingBoxesAreOpenCVs();
+  }
+  SetAvx2Enabled(had_avx2);
+}
+
+TEST(PolarSignature, TheAvx2AndBaselineBuildsDescribeAMaskAlike) {
+  // The pixel sums and the box scan have an AVX2 build; the signature, area and centre must be
+  // the baseline's bit for bit, on masks of widths around the vector lengths.
+  const bool had_avx2 = Avx2Enabled();
+  if (!SetAvx2Enabled(true)) GTEST_SKIP() << "this processor has no AVX2";
+  for (const int width : {97, 128, 131, 640}) {
+    cv::Mat mask = cv::Mat::zeros(120, width, CV_8UC1);
+    cv::ellipse(mask, {width / 2, 60}, {width / 3, 40}, 17, 0, 360, cv::Scalar(255), cv::FILLED);
+    cv::rectangle(mask, {width / 2, 10}, {width / 2 + 4, 60}, cv::Scalar(1), cv::FILLED);
+    SetAvx2Enabled(true);
+    const SignatureResult vector = ExtractSignature(mask);
+    SetAvx2Enabled(false);
+    const SignatureResult baseline = ExtractSignature(mask);
+    ASSERT_TRUE(baseline.ok()) << baseline.Describe();
+    EXPECT_EQ(vector.signature.radii, baseline.signature.radii) << "width " << width;
+    EXPECT_EQ(vector.signature.area_px, baseline.signature.area_px) << "width " << width;
+    EXPECT_EQ(vector.signature.centroid_px, baseline.signature.centroid_px) << "width " << width;
+    Eigen::Vector2d vector_centroid;
+    Eigen::Vector2d baseline_centroid;
+    SetAvx2Enabled(true);
+    const double vector_area = PixelAreaCentroid(mask, &vector_centroid);
+    SetAvx2Enabled(false);
+    EXPECT_EQ(vector_area, PixelAreaCentroid(mask, &baseline_centroid)) << "width " << width;
+    EXPECT_EQ(vector_centroid, baseline_centroid) << "width " << width;
+  }
+  SetAvx2Enabled(had_avx2);
+}
+
 
 TEST(PolarSignature, DescriptionDoesNotDependOnWhereTheMaskLiesInTheImage) {
   // The same silhouette in a small image, moved within a large one, and in a view of a larger
