@@ -22,24 +22,38 @@ namespace {
 
 // ranking[v] = sum over k < harmonics of query[k] table[k * views + v]: the proposal's ranking of
 // an object's views, row by row (each view's sum in the order of k, whatever the vector width).
+// Blocks of kRankBlock views are summed in registers over every k, then stored: as many
+// independent sums as the vector registers hold (8 AVX2 or 16 SSE2 registers of them). The block
+// only changes how many sums run at once, not the order within one.
+template <size_t kRankBlock>
 SILPOSE_ALWAYS_INLINE void RankViewsBody(const float* table, size_t harmonics, size_t views,
                                          const float* query, float* ranking) {
-  std::fill(ranking, ranking + views, 0.0f);
+  size_t first = 0;
+  for (; first + kRankBlock <= views; first += kRankBlock) {
+    float sums[kRankBlock] = {};
+    for (size_t k = 0; k < harmonics; ++k) {
+      const float q = query[k];
+      const float* row = table + k * views + first;
+      for (size_t j = 0; j < kRankBlock; ++j) sums[j] += q * row[j];
+    }
+    std::copy(sums, sums + kRankBlock, ranking + first);
+  }
+  std::fill(ranking + first, ranking + views, 0.0f);
   for (size_t k = 0; k < harmonics; ++k) {
     const float q = query[k];
     const float* row = table + k * views;
-    for (size_t v = 0; v < views; ++v) ranking[v] += q * row[v];
+    for (size_t v = first; v < views; ++v) ranking[v] += q * row[v];
   }
 }
 
 void RankViewsBaseline(const float* table, size_t harmonics, size_t views, const float* query,
                        float* ranking) {
-  RankViewsBody(table, harmonics, views, query, ranking);
+  RankViewsBody<32>(table, harmonics, views, query, ranking);
 }
 
 SILPOSE_TARGET_AVX2 void RankViewsAvx2(const float* table, size_t harmonics, size_t views,
                                        const float* query, float* ranking) {
-  RankViewsBody(table, harmonics, views, query, ranking);
+  RankViewsBody<64>(table, harmonics, views, query, ranking);
 }
 
 void RankViews(const float* table, size_t harmonics, size_t views, const float* query,
@@ -200,9 +214,11 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
     ranking_table_.assign(static_cast<size_t>(num_objects_),
                           std::vector<float>((static_cast<size_t>(ranking_harmonics_) + 1) * views));
     const size_t half = static_cast<size_t>(spectra.signature_length() / 2 + 1);
+    ranked_views_.assign(static_cast<size_t>(num_objects_), {});
     for (int m = 0; m < num_objects_; ++m) {
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
+        ranked_views_[static_cast<size_t>(m)].push_back(v);
         std::span<const float> magnitudes = spectra.Magnitudes(m, v);
         bool valid = true;
         for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
@@ -946,8 +962,7 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   const auto ranked = static_cast<size_t>(std::max(options_.guided_candidates, count));
   bounds_.clear();
   tail_bounds_.clear();
-  for (int v = 0; v < num_views_; ++v) {
-    if (!spectra_.Usable(object, v)) continue;
+  for (const int v : ranked_views_[static_cast<size_t>(object)]) {
     KeepLargest(&bounds_, ranked, {ranking_[static_cast<size_t>(v)], v});
     KeepLargest(&tail_bounds_, ranked,
                 {ranking_[static_cast<size_t>(v)] + frame_tail * tails[v], v});
@@ -961,6 +976,17 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
         candidate_views_.push_back(view);
       }
     }
+  }
+  // The candidates' spectra are scattered over the database: all of them are requested before
+  // the first is correlated.
+  for (const int view : candidate_views_) {
+    const int shell = ShellOf(object, view);
+    if (!spectra_.Usable(object, view, shell)) continue;
+    const SignatureSpectrum& spectrum = spectra_.Get(object, view, shell);
+    const auto* bytes = reinterpret_cast<const char*>(spectrum.coefficients.data());
+    const size_t size = std::min(spectrum.coefficients.size(), correlator_.harmonics()) *
+                        sizeof(std::complex<float>);
+    for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
   }
   for (const int view : candidate_views_) {
     const int shell = ShellOf(object, view);

@@ -654,6 +654,8 @@ class ParticleFilter {
   static constexpr Eigen::Index kRankingHarmonics = 32;
   Eigen::Index ranking_harmonics_ = 0;
   std::vector<std::vector<float>> ranking_table_;
+  /// Per object, the views the ranking considers (those Usable in shell 0), in increasing order.
+  std::vector<std::vector<int>> ranked_views_;
   std::vector<float> ranking_;
   std::vector<std::pair<float, int>> bounds_;
   std::vector<std::pair<float, int>> tail_bounds_;
