@@ -211,25 +211,25 @@ ParticleFilter::ParticleFilter(const ViewSphere& sphere, const ViewSpectra& spec
     }
     // One more row: the square root of the energy beyond the ranked harmonics (BestViewsOfObject).
     const auto views = static_cast<size_t>(num_views_);
+    const auto harmonics = static_cast<size_t>(ranking_harmonics_);
     ranking_table_.assign(static_cast<size_t>(num_objects_),
-                          std::vector<float>((static_cast<size_t>(ranking_harmonics_) + 1) * views));
+                          std::vector<float>((harmonics + 1) * views));
     const size_t half = static_cast<size_t>(spectra.signature_length() / 2 + 1);
     ranked_views_.assign(static_cast<size_t>(num_objects_), {});
     for (int m = 0; m < num_objects_; ++m) {
+      std::vector<float>& table = ranking_table_[static_cast<size_t>(m)];
       for (int v = 0; v < num_views_; ++v) {
         if (!spectra.Usable(m, v)) continue;
         ranked_views_[static_cast<size_t>(m)].push_back(v);
         std::span<const float> magnitudes = spectra.Magnitudes(m, v);
+        const auto column = static_cast<size_t>(v);
         bool valid = true;
-        for (Eigen::Index k = 0; k < ranking_harmonics_; ++k) {
-          const float value = magnitudes[static_cast<size_t>(k)];
+        for (size_t k = 0; k < harmonics; ++k) {
+          const float value = magnitudes[k];
           valid = valid && value >= 0.0f && value <= 1.0f;  // false for NaN too
-          ranking_table_[static_cast<size_t>(m)][static_cast<size_t>(k) * views +
-                                                 static_cast<size_t>(v)] = value;
+          table[k * views + column] = value;
         }
-        ranking_table_[static_cast<size_t>(m)][static_cast<size_t>(ranking_harmonics_) * views +
-                                               static_cast<size_t>(v)] =
-            TailEnergyRoot(magnitudes, static_cast<size_t>(ranking_harmonics_), half);
+        table[harmonics * views + column] = TailEnergyRoot(magnitudes, harmonics, half);
         // Stored magnitudes are read in place unchecked: Get checks the view's values (and throws
         // for a corrupt file).
         if (!valid) (void)spectra.Get(m, v);

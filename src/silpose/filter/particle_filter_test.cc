@@ -323,7 +323,8 @@ TEST_F(ParticleFilterTest, ReflectModeMovesTheModeToItsMirrorTwinAndNothingElse)
               spacing_deg);
     if (!p.roll_known) continue;
     // ... with the roll of F R A: up to the grid's offset of the view, the same rotation.
-    const Eigen::Matrix3d expected = f * CameraFromObjectRotation(direction(p.view), p.roll_deg) * a;
+    const Eigen::Matrix3d expected =
+        f * CameraFromObjectRotation(direction(p.view), p.roll_deg) * a;
     const Eigen::Matrix3d got = CameraFromObjectRotation(direction(q.view), q.roll_deg);
     EXPECT_LT(Eigen::AngleAxisd(Eigen::Matrix3d(expected.transpose() * got)).angle() / kDegToRad,
               1.5 * spacing_deg);

@@ -93,8 +93,8 @@ BandLimitedValue EvaluateBandLimitedBaseline(std::span<const std::complex<float>
   return EvaluateBandLimitedBody(products, omega, shift);
 }
 
-SILPOSE_TARGET_AVX2 BandLimitedValue EvaluateBandLimitedAvx2(
-    std::span<const std::complex<float>> products, double omega, double shift) {
+SILPOSE_TARGET_AVX2 BandLimitedValue
+EvaluateBandLimitedAvx2(std::span<const std::complex<float>> products, double omega, double shift) {
   return EvaluateBandLimitedBody(products, omega, shift);
 }
 
@@ -112,8 +112,8 @@ SILPOSE_ALWAYS_INLINE void ConjugateProductsBody(const std::complex<float>* q,
   }
 }
 
-void ConjugateProductsBaseline(const std::complex<float>* q, const std::complex<float>* d,
-                               size_t n, std::complex<float>* products) {
+void ConjugateProductsBaseline(const std::complex<float>* q, const std::complex<float>* d, size_t n,
+                               std::complex<float>* products) {
   ConjugateProductsBody(q, d, n, products);
 }
 

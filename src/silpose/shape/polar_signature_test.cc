@@ -391,7 +391,6 @@ TEST(PolarSignature, TheAvx2AndBaselineBuildsDescribeAMaskAlike) {
   SetAvx2Enabled(had_avx2);
 }
 
-
 TEST(PolarSignature, DescriptionDoesNotDependOnWhereTheMaskLiesInTheImage) {
   // The same silhouette in a small image, moved within a large one, and in a view of a larger
   // image: the same radii, and the centre moved by the offset.
