@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -154,6 +155,45 @@ TEST_F(CliTrackTest, SmoothingReportsEveryFrameInOrderWithAllOutputs) {
   run = Silpose(common + " --lag -1 -o " + Path("refused.csv"));
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.err.find("--lag"), std::string::npos) << run.err;
+}
+
+TEST_F(CliTrackTest, TheBaselineBuildOfTheInnerLoopsTracksAlike) {
+  // SILPOSE_NO_AVX2=1 makes the process run the baseline build of the loops that also have an
+  // AVX2 build (docs/conventions.md): POSES.csv must be the same but for the times.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this processor has no AVX2";
+#else
+  GTEST_SKIP() << "no AVX2 build on this platform";
+#endif
+  const std::string common = "track -d " + database_ + " " + sequence_ + "/video.avi --camera " +
+                             sequence_ + "/camera.yml --segment bgsub --background " + sequence_ +
+                             "/background.png --seed 4 -o ";
+  const CommandResult vector = Silpose(common + Path("vector.csv"));
+  ASSERT_EQ(vector.exit_code, 0) << vector.err;
+  EXPECT_NE(Silpose("--version").out.find("(inner loops: AVX2)"), std::string::npos);
+  ::setenv("SILPOSE_NO_AVX2", "1", 1);
+  const CommandResult baseline = Silpose(common + Path("baseline.csv"));
+  const CommandResult version = Silpose("--version");
+  ::unsetenv("SILPOSE_NO_AVX2");
+  // The variable did select the baseline build.
+  EXPECT_NE(version.out.find("(inner loops: baseline)"), std::string::npos) << version.out;
+  ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
+  const auto without_times = [](const std::vector<std::string>& rows) {
+    std::vector<std::vector<std::string>> cells;
+    const std::vector<std::string> header = CsvCells(rows.at(0));
+    for (const std::string& row : rows) {
+      std::vector<std::string> kept;
+      const std::vector<std::string> fields = CsvCells(row);
+      for (size_t c = 0; c < fields.size() && c < header.size(); ++c) {
+        if (header[c].rfind("time", 0) != 0) kept.push_back(fields[c]);
+      }
+      cells.push_back(kept);
+    }
+    return cells;
+  };
+  const std::vector<std::string> vector_rows = ReadLines(Path("vector.csv"));
+  ASSERT_EQ(vector_rows.size(), 61u);
+  EXPECT_EQ(without_times(vector_rows), without_times(ReadLines(Path("baseline.csv"))));
 }
 
 TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {

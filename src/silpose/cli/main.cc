@@ -8,6 +8,7 @@
 
 #include "silpose/cli/commands.h"
 #include "silpose/io/image_limits.h"
+#include "silpose/util/cpu_features.h"
 #include "silpose/util/error.h"
 
 namespace {
@@ -31,7 +32,10 @@ int main(int argc, char** argv) {
       "Typical use: 'silpose build-db MODELS... -o models.db', then 'silpose match -d models.db "
       "mask.png'.\nRun 'silpose demo' to see the whole pipeline on built-in sample models."};
   app.name("silpose");
-  app.set_version_flag("--version", std::string("silpose ") + SILPOSE_VERSION);
+  // The build of the innermost loops this process runs (docs/conventions.md, "Matching").
+  app.set_version_flag("--version", std::string("silpose ") + SILPOSE_VERSION +
+                                        (silpose::Avx2Enabled() ? " (inner loops: AVX2)"
+                                                                : " (inner loops: baseline)"));
   app.require_subcommand(1);
   app.failure_message([](const CLI::App* failed, const CLI::Error& error) {
     std::string name = failed->get_name();

@@ -9,6 +9,7 @@ namespace {
 
 bool ProcessorHasAvx2() {
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  __builtin_cpu_init();  // in case this runs before the compiler's own start-up code
   return __builtin_cpu_supports("avx2");
 #else
   return false;
