@@ -856,6 +856,20 @@ TEST_F(ParticleFilterTest, SameSeedGivesTheSameEstimates) {
   EXPECT_NE(run(43).second, first_views);
 }
 
+// Two runs' estimates, frame by frame, bit for bit.
+void ExpectSameEstimates(const std::vector<FilterEstimate>& a,
+                         const std::vector<FilterEstimate>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t t = 0; t < a.size(); ++t) {
+    EXPECT_EQ(a[t].object, b[t].object) << "frame " << t;
+    EXPECT_EQ(a[t].view, b[t].view) << "frame " << t;
+    EXPECT_EQ(a[t].roll_deg, b[t].roll_deg) << "frame " << t;
+    EXPECT_EQ(a[t].score, b[t].score) << "frame " << t;
+    EXPECT_EQ(a[t].object_probability, b[t].object_probability) << "frame " << t;
+    EXPECT_EQ(a[t].num_particles_after, b[t].num_particles_after) << "frame " << t;
+  }
+}
+
 TEST_F(ParticleFilterTest, WithoutHistoryTheEstimatesAreTheSameAndNoHistoryIsKept) {
   // A walk with a prediction-only frame and a jump to another object, so that proposals,
   // resampling and the estimate rule all run; the histories must not change any of them, with a
@@ -882,15 +896,7 @@ TEST_F(ParticleFilterTest, WithoutHistoryTheEstimatesAreTheSameAndNoHistoryIsKep
     };
     const auto [kept, with] = run(true);
     const auto [none, without] = run(false);
-    ASSERT_EQ(with.size(), without.size());
-    for (size_t t = 0; t < with.size(); ++t) {
-      EXPECT_EQ(with[t].object, without[t].object) << "frame " << t;
-      EXPECT_EQ(with[t].view, without[t].view) << "frame " << t;
-      EXPECT_EQ(with[t].roll_deg, without[t].roll_deg) << "frame " << t;
-      EXPECT_EQ(with[t].score, without[t].score) << "frame " << t;
-      EXPECT_EQ(with[t].object_probability, without[t].object_probability) << "frame " << t;
-      EXPECT_EQ(with[t].num_particles_after, without[t].num_particles_after) << "frame " << t;
-    }
+    ExpectSameEstimates(with, without);
     ASSERT_EQ(kept->particles().size(), none->particles().size());
     for (size_t i = 0; i < kept->particles().size(); ++i) {
       EXPECT_EQ(kept->particles()[i].view, none->particles()[i].view);
@@ -932,15 +938,7 @@ TEST_F(ParticleFilterTest, TheAvx2AndBaselineBuildsOfTheInnerLoopsGiveTheSameEst
     };
     const auto [vector_filter, vector_estimates] = run(true);
     const auto [baseline_filter, baseline_estimates] = run(false);
-    ASSERT_EQ(vector_estimates.size(), baseline_estimates.size());
-    for (size_t t = 0; t < vector_estimates.size(); ++t) {
-      EXPECT_EQ(vector_estimates[t].object, baseline_estimates[t].object) << "frame " << t;
-      EXPECT_EQ(vector_estimates[t].view, baseline_estimates[t].view) << "frame " << t;
-      EXPECT_EQ(vector_estimates[t].roll_deg, baseline_estimates[t].roll_deg) << "frame " << t;
-      EXPECT_EQ(vector_estimates[t].score, baseline_estimates[t].score) << "frame " << t;
-      EXPECT_EQ(vector_estimates[t].object_probability, baseline_estimates[t].object_probability)
-          << "frame " << t;
-    }
+    ExpectSameEstimates(vector_estimates, baseline_estimates);
     ASSERT_EQ(vector_filter->particles().size(), baseline_filter->particles().size());
     for (size_t i = 0; i < vector_filter->particles().size(); ++i) {
       EXPECT_EQ(vector_filter->particles()[i].view, baseline_filter->particles()[i].view);
