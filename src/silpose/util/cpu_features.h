@@ -1,7 +1,8 @@
 #pragma once
-// Vector instructions for the innermost loops. The correlation's band-limited evaluation, the
-// proposal's ranking of views and the mask scans are each compiled twice, for the x86-64 baseline
-// (SSE2) and for AVX2, and the AVX2 build runs where the processor has it. The two builds perform
+// Vector instructions for the innermost loops. The correlation's conjugate products and
+// band-limited evaluation, the proposal's ranking of views and the mask scans are each compiled
+// twice, for the x86-64 baseline (SSE2) and for AVX2, and the AVX2 build runs where the processor
+// has it. The two builds perform
 // the same floating-point operations in the same order (no fused multiply-add), so they give the
 // same results bit for bit; AVX2 only does more of them at once.
 
