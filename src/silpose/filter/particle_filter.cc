@@ -64,6 +64,7 @@ void RankViews(const float* table, size_t harmonics, size_t views, const float* 
     RankViewsBaseline(table, harmonics, views, query, ranking);
   }
 }
+
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 }  // namespace
 
