@@ -65,6 +65,15 @@ void RankViews(const float* table, size_t harmonics, size_t views, const float* 
   }
 }
 
+// Requests from memory the coefficients of a spectrum that the correlator reads (its first
+// `harmonics`): the database's spectra are scattered and seldom in the cache.
+void PrefetchCoefficients(const SignatureSpectrum& spectrum, size_t harmonics) {
+  const auto* bytes = reinterpret_cast<const char*>(spectrum.coefficients.data());
+  const size_t size =
+      std::min(spectrum.coefficients.size(), harmonics) * sizeof(std::complex<float>);
+  for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
+}
+
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 }  // namespace
 
@@ -846,10 +855,7 @@ void ParticleFilter::ScoreParticles(const SignatureSpectrum& frame) {
     const int shell = ShellOf(object, view);
     if (!spectra_.Usable(object, view, shell)) return nullptr;
     const SignatureSpectrum& spectrum = spectra_.Get(object, view, shell);
-    const auto* bytes = reinterpret_cast<const char*>(spectrum.coefficients.data());
-    const size_t size = std::min(spectrum.coefficients.size(), correlator_.harmonics()) *
-                        sizeof(std::complex<float>);
-    for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
+    PrefetchCoefficients(spectrum, correlator_.harmonics());
     return &spectrum;
   };
   const SignatureSpectrum* next = fetch(0);
@@ -980,19 +986,16 @@ std::vector<ParticleFilter::CandidateView> ParticleFilter::BestViewsOfObject(
   }
   // The candidates' spectra are scattered over the database: all of them are requested before
   // the first is correlated.
+  candidate_spectra_.clear();
   for (const int view : candidate_views_) {
     const int shell = ShellOf(object, view);
     if (!spectra_.Usable(object, view, shell)) continue;
     const SignatureSpectrum& spectrum = spectra_.Get(object, view, shell);
-    const auto* bytes = reinterpret_cast<const char*>(spectrum.coefficients.data());
-    const size_t size = std::min(spectrum.coefficients.size(), correlator_.harmonics()) *
-                        sizeof(std::complex<float>);
-    for (size_t offset = 0; offset < size; offset += 64) __builtin_prefetch(bytes + offset);
+    PrefetchCoefficients(spectrum, correlator_.harmonics());
+    candidate_spectra_.emplace_back(view, &spectrum);
   }
-  for (const int view : candidate_views_) {
-    const int shell = ShellOf(object, view);
-    if (!spectra_.Usable(object, view, shell)) continue;
-    const CorrelationPeak peak = correlator_.Peak(frame, spectra_.Get(object, view, shell));
+  for (const auto& [view, spectrum] : candidate_spectra_) {
+    const CorrelationPeak peak = correlator_.Peak(frame, *spectrum);
     best.push_back({view, peak.RollDeg(spectra_.signature_length()), peak.score});
   }
   std::sort(best.begin(), best.end(),

@@ -661,6 +661,8 @@ class ParticleFilter {
   std::vector<std::pair<float, int>> tail_bounds_;
   std::vector<float> frame_magnitudes_;
   std::vector<int> candidate_views_;
+  /// The usable candidates of BestViewsOfObject and their spectra.
+  std::vector<std::pair<int, const SignatureSpectrum*>> candidate_spectra_;
 };
 
 /// 1 / sum(w_i^2) of weights that sum to 1 (0 for no weights).
