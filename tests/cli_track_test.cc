@@ -17,6 +17,21 @@
 namespace silpose {
 namespace {
 
+// The cells of POSES.csv rows without the time columns (which differ between runs).
+std::vector<std::vector<std::string>> CellsWithoutTimes(const std::vector<std::string>& rows) {
+  std::vector<std::vector<std::string>> cells;
+  const std::vector<std::string> header = CsvCells(rows.at(0));
+  for (const std::string& row : rows) {
+    std::vector<std::string> kept;
+    const std::vector<std::string> fields = CsvCells(row);
+    for (size_t c = 0; c < fields.size() && c < header.size(); ++c) {
+      if (header[c].rfind("time", 0) != 0) kept.push_back(fields[c]);
+    }
+    cells.push_back(kept);
+  }
+  return cells;
+}
+
 class CliTrackTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -178,22 +193,35 @@ TEST_F(CliTrackTest, TheBaselineBuildOfTheInnerLoopsTracksAlike) {
   // The variable did select the baseline build.
   EXPECT_NE(version.out.find("(inner loops: baseline)"), std::string::npos) << version.out;
   ASSERT_EQ(baseline.exit_code, 0) << baseline.err;
-  const auto without_times = [](const std::vector<std::string>& rows) {
-    std::vector<std::vector<std::string>> cells;
-    const std::vector<std::string> header = CsvCells(rows.at(0));
-    for (const std::string& row : rows) {
-      std::vector<std::string> kept;
-      const std::vector<std::string> fields = CsvCells(row);
-      for (size_t c = 0; c < fields.size() && c < header.size(); ++c) {
-        if (header[c].rfind("time", 0) != 0) kept.push_back(fields[c]);
-      }
-      cells.push_back(kept);
-    }
-    return cells;
-  };
   const std::vector<std::string> vector_rows = ReadLines(Path("vector.csv"));
   ASSERT_EQ(vector_rows.size(), 61u);
-  EXPECT_EQ(without_times(vector_rows), without_times(ReadLines(Path("baseline.csv"))));
+  EXPECT_EQ(CellsWithoutTimes(vector_rows), CellsWithoutTimes(ReadLines(Path("baseline.csv"))));
+}
+
+TEST_F(CliTrackTest, FramesReadAheadTrackAlike) {
+  // By default the frames are decoded on a second thread, two ahead; --read-ahead 0 decodes each
+  // on the tracking thread when it is needed. The results must be the same but for the times.
+  const std::string common = "track -d " + database_ + " " + sequence_ + "/video.avi --camera " +
+                             sequence_ + "/camera.yml --segment bgsub --background " + sequence_ +
+                             "/background.png --seed 4 -o ";
+  const CommandResult ahead = Silpose(common + Path("ahead.csv"));
+  ASSERT_EQ(ahead.exit_code, 0) << ahead.err;
+  EXPECT_NE(ahead.out.find("waiting for the frames read ahead"), std::string::npos) << ahead.out;
+  const CommandResult in_turn = Silpose(common + Path("in_turn.csv") + " --read-ahead 0");
+  ASSERT_EQ(in_turn.exit_code, 0) << in_turn.err;
+  EXPECT_NE(in_turn.out.find(" ms reading)"), std::string::npos) << in_turn.out;
+  const CommandResult deep = Silpose(common + Path("deep.csv") + " --read-ahead 7");
+  ASSERT_EQ(deep.exit_code, 0) << deep.err;
+  const std::vector<std::string> rows = ReadLines(Path("ahead.csv"));
+  ASSERT_EQ(rows.size(), 61u);
+  EXPECT_EQ(CellsWithoutTimes(rows), CellsWithoutTimes(ReadLines(Path("in_turn.csv"))));
+  EXPECT_EQ(CellsWithoutTimes(rows), CellsWithoutTimes(ReadLines(Path("deep.csv"))));
+  for (const char* bad : {" --read-ahead -1", " --read-ahead 65"}) {
+    const CommandResult refused = Silpose(common + Path("bad.csv") + bad);
+    EXPECT_NE(refused.exit_code, 0) << bad;
+    EXPECT_EQ(Lines(refused.err), 1) << refused.err;
+    EXPECT_NE(refused.err.find("--read-ahead must be 0"), std::string::npos) << refused.err;
+  }
 }
 
 TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {
@@ -206,13 +234,17 @@ TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {
                                std::filesystem::copy_options::overwrite_existing);
   }
   std::ofstream(folder / "000010.png", std::ios::trunc) << "not a png";
-  const std::string poses = Path("broken.csv");
-  const CommandResult run = Silpose("track -d " + database_ + " " + folder.string() + " --camera " +
-                                    sequence_ + "/camera.yml -o " + poses);
-  EXPECT_NE(run.exit_code, 0);
-  EXPECT_EQ(Lines(run.err), 1) << run.err;
-  EXPECT_NE(run.err.find("000010.png"), std::string::npos) << run.err;
-  EXPECT_EQ(ReadLines(poses).size(), 11u);  // header + frames 0..9
+  // With the frames read ahead (the default) and without.
+  for (const char* read_ahead : {"", " --read-ahead 0"}) {
+    const std::string poses = Path("broken.csv");
+    const CommandResult run = Silpose("track -d " + database_ + " " + folder.string() +
+                                      " --camera " + sequence_ + "/camera.yml -o " + poses +
+                                      read_ahead);
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_EQ(Lines(run.err), 1) << run.err;
+    EXPECT_NE(run.err.find("000010.png"), std::string::npos) << run.err;
+    EXPECT_EQ(ReadLines(poses).size(), 11u) << read_ahead;  // header + frames 0..9
+  }
 }
 
 TEST_F(CliTrackTest, WrongCalibrationFileIsRefused) {

@@ -87,7 +87,7 @@ def track_video(database, input, output=None, camera=None, options=None, max_fra
     if (options.segment == "bgsub" and not options.background and is_folder
             and os.path.isfile(os.path.join(input, "background.png"))):
         options.background = os.path.join(input, "background.png")
-    reader = FrameReader(input, masks=options.segment == "mask")
+    reader = FrameReader(input, masks=options.segment == "mask", read_ahead=2)
     if camera is None and is_folder and os.path.isfile(os.path.join(input, "camera.yml")):
         camera = os.path.join(input, "camera.yml")
     if camera is not None and not isinstance(camera, Camera):

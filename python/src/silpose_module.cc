@@ -23,6 +23,7 @@
 #include "silpose/io/camera_file.h"
 #include "silpose/io/frame_source.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/io/read_ahead_source.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/pose/pose_output.h"
@@ -325,7 +326,9 @@ py::dict TruthDict(const GroundTruthFrame& truth) {
 // Frame reading: any input `silpose track` reads, frame by frame as numpy arrays.
 class FrameReader {
  public:
-  FrameReader(const std::string& input, const std::string& color, bool masks_folder) {
+  FrameReader(const std::string& input, const std::string& color, bool masks_folder,
+              int read_ahead) {
+    if (read_ahead < 0) ThrowError("read_ahead must be >= 0 frames, got ", read_ahead);
     FrameSourceOptions options;
     if (color == "as-stored") {
       options.color = FrameColor::kAsStored;
@@ -340,6 +343,7 @@ class FrameReader {
     }
     options.sequence_folder = masks_folder ? SequenceFolder::kMasks : SequenceFolder::kFrames;
     source_ = OpenFrameSource(input, options);
+    if (read_ahead > 0) source_ = std::make_unique<ReadAheadSource>(std::move(source_), read_ahead);
   }
   std::optional<cv::Mat> Next() {
     cv::Mat frame;  // a new buffer per frame: the previous array may still be in use
@@ -1131,10 +1135,12 @@ void BindTrack(py::module_& m) {
   py::class_<FrameReader>(m, "FrameReader",
                           "Reads any input 'silpose track' reads (image folder, sequence folder, "
                           "AVI video) as numpy arrays; an iterator over the frames.")
-      .def(py::init<const std::string&, const std::string&, bool>(), py::arg("input"),
-           py::arg("color") = "as-stored", py::arg("masks") = true,
+      .def(py::init<const std::string&, const std::string&, bool, int>(), py::arg("input"),
+           py::arg("color") = "as-stored", py::arg("masks") = true, py::arg("read_ahead") = 0,
            "Opens `input`. color: 'as-stored', 'gray', 'bgr' or 'mask'. masks: take a sequence "
-           "folder's masks/ (True) or frames/ (False). Raises silpose.Error naming the input.")
+           "folder's masks/ (True) or frames/ (False). read_ahead: frames decoded ahead on a "
+           "thread of their own while the caller works (as 'silpose track --read-ahead'; 0: "
+           "decoded when asked for). Raises silpose.Error naming the input.")
       .def(
           "__iter__", [](FrameReader& reader) -> FrameReader& { return reader; },
           py::return_value_policy::reference_internal, "Returns the reader.")

@@ -150,8 +150,22 @@ def test_bad_frames_raise_with_the_library_message(cli_database):
         silpose.TrackerOptions(background_method="gaussian")
     with pytest.raises(silpose.Error, match="no-such-video.avi"):
         silpose.FrameReader("no-such-video.avi")
+    with pytest.raises(silpose.Error, match="read_ahead must be >= 0"):
+        silpose.FrameReader("no-such-video.avi", read_ahead=-1)
     with pytest.raises(silpose.Error, match="invalid camera"):
         silpose.Camera(0, 48, 50, 50, 32, 24)
+
+
+def test_frames_read_ahead_are_the_frames_read_when_asked_for(video):
+    plain = list(silpose.FrameReader(str(video / "video.avi"), masks=False))
+    reader = silpose.FrameReader(str(video / "video.avi"), masks=False, read_ahead=3)
+    ahead = list(reader)
+    assert len(plain) == len(ahead) == 12
+    assert reader.name == "video.avi#11"
+    for a, b in zip(plain, ahead):
+        np.testing.assert_array_equal(a, b)
+    # Each frame is a buffer of its own: the first is intact after the last was read.
+    assert not np.shares_memory(ahead[0], ahead[-1])
 
 
 def test_smoother_reports_every_frame_late_and_in_order(cli_database, video, tmp_path):

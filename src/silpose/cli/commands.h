@@ -51,6 +51,8 @@ struct TrackJob {
   std::vector<std::string> models;
   std::string masks_out;
   int max_frames = 0;
+  /// Frames read (decoded) ahead on a thread of their own; 0 reads them on the tracking thread.
+  int read_ahead = 2;
   // Segmentation.
   std::string segment = "mask";
   std::string background_method = "mog2";

@@ -16,6 +16,7 @@
 #include "silpose/io/image_codec.h"
 #include "silpose/io/image_limits.h"
 #include "silpose/io/mask_file.h"
+#include "silpose/io/read_ahead_source.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/render/overlay.h"
@@ -28,6 +29,9 @@
 
 namespace silpose::cli {
 namespace {
+
+// --read-ahead: more frames ahead only hold more memory (a colour frame is about 1 MB).
+constexpr int kMaxReadAhead = 64;
 
 // The number an image file is named by ("000012.png" -> 12), else -1 (videos: "video.avi#12").
 int NumericStem(const std::string& name) {
@@ -259,8 +263,9 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
   if (frames == 0) return;
   std::printf(
       "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame (+ %.2f ms "
-      "reading)%s\n",
+      "%s)%s\n",
       frames, measured, arguments.input.c_str(), total_ms / frames, decode_ms / frames,
+      arguments.read_ahead > 0 ? "waiting for the frames read ahead" : "reading",
       arguments.tracker.brute_force ? ", brute force" : "");
   const TrackReport::StageTimes stages = report.MeanStageTimes();
   std::printf(
@@ -334,6 +339,10 @@ void RunTrackJob(const TrackJob& arguments) {
     segment.threshold_method = ThresholdMethod::kHsvRange;
   }
   if (arguments.max_frames < 0) ThrowError("--max-frames must be >= 0");
+  if (arguments.read_ahead < 0 || arguments.read_ahead > kMaxReadAhead) {
+    ThrowError("--read-ahead must be 0 (read on the tracking thread) to ", kMaxReadAhead,
+               " frames, got ", arguments.read_ahead);
+  }
   FitParticleBounds(&options.filter);
   // Options of another segmentation kind would be ignored: refuse them.
   const TrackJob defaults;
@@ -429,6 +438,9 @@ void RunTrackJob(const TrackJob& arguments) {
     source_options.mask_threshold = segment.mask_threshold;
   }
   std::unique_ptr<FrameSource> source = OpenFrameSource(arguments.input, source_options);
+  if (arguments.read_ahead > 0) {
+    source = std::make_unique<ReadAheadSource>(std::move(source), arguments.read_ahead);
+  }
   const ViewDatabase database = ViewDatabase::Read(arguments.database);
   if (!options.brute_force)
     CheckTotalParticles(options.filter, database.models.size(), arguments.database);
@@ -693,6 +705,11 @@ void AddTrackCommand(CLI::App& app) {
                       "the frame (000012.png; the frame's index for videos), all black where the "
                       "segmentation found nothing: to see the masks while tuning the options");
   command->add_option("--max-frames", arguments->max_frames, "Stop after N frames (0: all)");
+  command
+      ->add_option("--read-ahead", arguments->read_ahead,
+                   "Frames decoded ahead of the tracking on a second thread, so that decoding "
+                   "overlaps it (0: decode on the tracking thread)")
+      ->capture_default_str();
   ParticleFilterOptions& filter = arguments->tracker.filter;
   command
       ->add_option("--particles", filter.particles_per_object,
