@@ -7,6 +7,8 @@
 //    /2 gauss, learned from the empty scene's image)
 //  - BM_SegmentColourVideo: the segmentation alone of that video's first 100 frames (decoded
 //    beforehand), same methods; the counter mean_iou compares the masks with the rendered ones
+//  - BM_TrackReadAhead: as `silpose track` runs by default, the frames decoded two ahead on a
+//    second thread (/0 the mask video, /1 the colour video with MOG2); wall-clock time
 //  - BM_TrackStreams/N: N mask videos tracked at once on N threads, one Tracker each, sharing the
 //    database and one ViewSpectra (items_per_second: frames per second of all streams together)
 // items_per_second is frames per second. The videos (300 frames of a random walk around the
@@ -24,6 +26,7 @@
 #include "silpose/database/database_builder.h"
 #include "silpose/io/frame_source.h"
 #include "silpose/io/image_codec.h"
+#include "silpose/io/read_ahead_source.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/synth/synthetic_sequence.h"
 #include "silpose/track/tracker.h"
@@ -88,13 +91,16 @@ const Fixture& GetFixture() {
   return *fixture;
 }
 
-void RunVideo(benchmark::State& state, const std::string& video, const TrackerOptions& options) {
+// read_ahead > 0: the frames are decoded on a second thread, that many ahead (track --read-ahead).
+void RunVideo(benchmark::State& state, const std::string& video, const TrackerOptions& options,
+              int read_ahead = 0) {
   const Fixture& fixture = GetFixture();
   cv::setNumThreads(1);
   int64_t frames = 0;
   int measured = 0;
   for (auto _ : state) {
     std::unique_ptr<FrameSource> source = OpenFrameSource((fixture.folder / video).string());
+    if (read_ahead > 0) source = std::make_unique<ReadAheadSource>(std::move(source), read_ahead);
     Tracker tracker(fixture.database, fixture.camera, options);
     for (cv::Mat frame; source->Read(&frame);) {
       const TrackedFrame tracked = tracker.Process(frame);
@@ -150,6 +156,25 @@ BENCHMARK(BM_TrackColourVideo)
     ->Arg(2)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
+
+// As `silpose track` runs by default: the frames decoded two ahead on a second thread while the
+// tracking thread works. Arg 0: the mask video; 1: the colour video with MOG2.
+void BM_TrackReadAhead(benchmark::State& state) {
+  TrackerOptions options = TrackCommandOptions();
+  std::string video = "masks.avi";
+  if (state.range(0) != 0) {
+    options.segmentation = ColourSegmentation(0);
+    video = "video.avi";
+  }
+  state.SetLabel(video + ", frames read ahead on a second thread");
+  RunVideo(state, video, options, 2);
+}
+BENCHMARK(BM_TrackReadAhead)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
 
 void BM_SegmentColourVideo(benchmark::State& state) {
   const Fixture& fixture = GetFixture();
