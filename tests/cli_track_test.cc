@@ -237,9 +237,9 @@ TEST_F(CliTrackTest, UnreadableFrameIsNamedAndEarlierFramesKept) {
   // With the frames read ahead (the default) and without.
   for (const char* read_ahead : {"", " --read-ahead 0"}) {
     const std::string poses = Path("broken.csv");
-    const CommandResult run = Silpose("track -d " + database_ + " " + folder.string() +
-                                      " --camera " + sequence_ + "/camera.yml -o " + poses +
-                                      read_ahead);
+    const CommandResult run =
+        Silpose("track -d " + database_ + " " + folder.string() + " --camera " + sequence_ +
+                "/camera.yml -o " + poses + read_ahead);
     EXPECT_NE(run.exit_code, 0);
     EXPECT_EQ(Lines(run.err), 1) << run.err;
     EXPECT_NE(run.err.find("000010.png"), std::string::npos) << run.err;
