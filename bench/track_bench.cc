@@ -7,8 +7,8 @@
 //    /2 gauss, learned from the empty scene's image)
 //  - BM_SegmentColourVideo: the segmentation alone of that video's first 100 frames (decoded
 //    beforehand), same methods; the counter mean_iou compares the masks with the rendered ones
-//  - BM_TrackReadAhead: as `silpose track` runs by default, the frames decoded two ahead on a
-//    second thread (/0 the mask video, /1 the colour video with MOG2); wall-clock time
+//  - BM_TrackReadAhead: as `silpose track` runs by default, the frames decoded and segmented two
+//    ahead on a second thread (/0 the mask video, /1 the colour video with MOG2); wall-clock time
 //  - BM_TrackStreams/N: N mask videos tracked at once on N threads, one Tracker each, sharing the
 //    database and one ViewSpectra (items_per_second: frames per second of all streams together)
 // items_per_second is frames per second. The videos (300 frames of a random walk around the
@@ -16,6 +16,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <any>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -29,6 +30,7 @@
 #include "silpose/io/read_ahead_source.h"
 #include "silpose/io/video_writer.h"
 #include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/segment_ahead.h"
 #include "silpose/track/tracker.h"
 
 namespace silpose {
@@ -91,7 +93,8 @@ const Fixture& GetFixture() {
   return *fixture;
 }
 
-// read_ahead > 0: the frames are decoded on a second thread, that many ahead (track --read-ahead).
+// read_ahead > 0: the frames are decoded and segmented on a second thread, that many ahead (track
+// --read-ahead).
 void RunVideo(benchmark::State& state, const std::string& video, const TrackerOptions& options,
               int read_ahead = 0) {
   const Fixture& fixture = GetFixture();
@@ -100,10 +103,22 @@ void RunVideo(benchmark::State& state, const std::string& video, const TrackerOp
   int measured = 0;
   for (auto _ : state) {
     std::unique_ptr<FrameSource> source = OpenFrameSource((fixture.folder / video).string());
-    if (read_ahead > 0) source = std::make_unique<ReadAheadSource>(std::move(source), read_ahead);
+    ReadAheadSource* ahead = nullptr;
+    if (read_ahead > 0) {
+      auto reader = std::make_unique<ReadAheadSource>(std::move(source), read_ahead,
+                                                      SegmentAhead(options.segmentation));
+      ahead = reader.get();
+      source = std::move(reader);
+    }
     Tracker tracker(fixture.database, fixture.camera, options);
     for (cv::Mat frame; source->Read(&frame);) {
-      const TrackedFrame tracked = tracker.Process(frame);
+      TrackedFrame tracked;
+      if (ahead != nullptr) {
+        auto& segmented = std::any_cast<AheadSegmentation&>(ahead->work_result());
+        tracked = tracker.Process(frame, std::move(segmented.result), segmented.ms);
+      } else {
+        tracked = tracker.Process(frame);
+      }
       measured += tracked.result.camera_from_object.has_value();
       ++frames;
     }
@@ -157,8 +172,8 @@ BENCHMARK(BM_TrackColourVideo)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 
-// As `silpose track` runs by default: the frames decoded two ahead on a second thread while the
-// tracking thread works. Arg 0: the mask video; 1: the colour video with MOG2.
+// As `silpose track` runs by default: the frames decoded and segmented two ahead on a second
+// thread while the tracking thread works. Arg 0: the mask video; 1: the colour video with MOG2.
 void BM_TrackReadAhead(benchmark::State& state) {
   TrackerOptions options = TrackCommandOptions();
   std::string video = "masks.avi";

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <any>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@
 #include "silpose/mesh/triangle_mesh.h"
 #include "silpose/render/overlay.h"
 #include "silpose/synth/ground_truth.h"
+#include "silpose/track/segment_ahead.h"
 #include "silpose/track/smoother.h"
 #include "silpose/track/track_report.h"
 #include "silpose/track/tracker.h"
@@ -32,6 +34,7 @@ namespace {
 
 // --read-ahead: more frames ahead only hold more memory (a colour frame is about 1 MB).
 constexpr int kMaxReadAhead = 64;
+
 
 // The number an image file is named by ("000012.png" -> 12), else -1 (videos: "video.avi#12").
 int NumericStem(const std::string& name) {
@@ -145,11 +148,17 @@ std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackJob& arguments
 // that brings it under (docs/limits.md), and says so.
 constexpr double kMaxBackgroundPixels = 9e6;
 
-void LimitBackgroundSubtraction(cv::Size frame_size, SegmenterOptions* segment) {
-  if (segment->kind != SegmenterKind::kBackground) return;
+// The --downscale background subtraction runs at on frames of this size (LimitBackgroundSubtraction).
+int BackgroundDownscale(cv::Size frame_size, const SegmenterOptions& segment) {
+  if (segment.kind != SegmenterKind::kBackground) return segment.downscale;
   const double pixels = static_cast<double>(frame_size.width) * frame_size.height;
-  int factor = segment->downscale;
+  int factor = segment.downscale;
   while (pixels / (static_cast<double>(factor) * factor) > kMaxBackgroundPixels) ++factor;
+  return factor;
+}
+
+void LimitBackgroundSubtraction(cv::Size frame_size, SegmenterOptions* segment) {
+  const int factor = BackgroundDownscale(frame_size, *segment);
   if (factor == segment->downscale) return;
   std::fprintf(stderr,
                "note: background subtraction on %dx%d frames runs at --downscale %d (at most %.0f "
@@ -438,8 +447,18 @@ void RunTrackJob(const TrackJob& arguments) {
     source_options.mask_threshold = segment.mask_threshold;
   }
   std::unique_ptr<FrameSource> source = OpenFrameSource(arguments.input, source_options);
+  // With --read-ahead the frames are also segmented on the reading thread, in order, with the
+  // tracker's options (made at the first frame, whose size can change them).
+  ReadAheadSource* ahead = nullptr;
   if (arguments.read_ahead > 0) {
-    source = std::make_unique<ReadAheadSource>(std::move(source), arguments.read_ahead);
+    ReadAheadSource::FrameWork segment_frame =
+        SegmentAhead(options.segmentation, [](cv::Size size, SegmenterOptions* at_size) {
+          at_size->downscale = BackgroundDownscale(size, *at_size);
+        });
+    auto reader = std::make_unique<ReadAheadSource>(std::move(source), arguments.read_ahead,
+                                                    std::move(segment_frame));
+    ahead = reader.get();
+    source = std::move(reader);
   }
   const ViewDatabase database = ViewDatabase::Read(arguments.database);
   if (!options.brute_force)
@@ -598,7 +617,17 @@ void RunTrackJob(const TrackJob& arguments) {
         }
       }
       waiting.push_back(std::move(info));
-      if (smoother) {
+      if (ahead != nullptr) {
+        // Segmented on the reading thread.
+        auto& segmented = std::any_cast<AheadSegmentation&>(ahead->work_result());
+        if (smoother) {
+          for (TrackedFrame& done :
+               smoother->Process(frame, std::move(segmented.result), segmented.ms))
+            emit(std::move(done));
+        } else {
+          emit(tracker.Process(frame, std::move(segmented.result), segmented.ms));
+        }
+      } else if (smoother) {
         for (TrackedFrame& done : smoother->Process(frame)) emit(std::move(done));
       } else {
         emit(tracker.Process(frame));

@@ -7,10 +7,11 @@
 
 namespace silpose {
 
-ReadAheadSource::ReadAheadSource(std::unique_ptr<FrameSource> source, int depth)
+ReadAheadSource::ReadAheadSource(std::unique_ptr<FrameSource> source, int depth, FrameWork work)
     : FrameSource(FrameColor::kAsStored),
       source_(std::move(source)),
-      depth_(depth > 0 ? static_cast<size_t>(depth) : 0) {
+      depth_(depth > 0 ? static_cast<size_t>(depth) : 0),
+      work_(std::move(work)) {
   if (source_ == nullptr) ThrowError("ReadAheadSource: no source given");
   if (depth < 1) ThrowError("ReadAheadSource: the read-ahead depth must be >= 1, got ", depth);
   num_frames_ = source_->num_frames();
@@ -47,6 +48,7 @@ void ReadAheadSource::Run() {
         // A buffer of its own: the source may decode its next frame into the one it returned.
         entry.frame = frame.clone();
         entry.name = source_->name();
+        if (work_) entry.work = work_(entry.frame);
       } else {
         entry.end = true;
       }
@@ -80,6 +82,7 @@ bool ReadAheadSource::ReadNext(cv::Mat* frame) {
     return false;
   }
   name_ = std::move(entry.name);
+  work_result_ = std::move(entry.work);
   if (frame_index() < 0) size_ = entry.frame.size();
   *frame = std::move(entry.frame);
   return true;

@@ -2,11 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <any>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "silpose/util/error.h"
@@ -116,6 +118,34 @@ TEST(ReadAheadSource, StopsWhenDestroyedBeforeTheEnd) {
       EXPECT_EQ(frame.at<uint8_t>(0, 0), i);
     }
   }  // each destructor joins its thread while the queue is full: the test ends, no hang
+  std::filesystem::remove_all(directory);
+}
+
+TEST(ReadAheadSource, GivesEachFrameTheResultOfTheWorkDoneOnItAndStopsAtAnErrorOfTheWork) {
+  const auto directory = WriteFrames("work", 8);
+  // The work sees the frames in order (it counts them) and reads each one's content.
+  int seen = 0;
+  ReadAheadSource::FrameWork work = [&seen](const cv::Mat& frame) -> std::any {
+    const int value = frame.at<uint8_t>(0, 0);
+    if (value == 5) ThrowError("work: frame with value 5");
+    return std::make_pair(seen++, value);
+  };
+  ReadAheadSource source(OpenFrameSource(directory.string()), 2, work);
+  cv::Mat frame;
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(source.Read(&frame)) << i;
+    const auto done = std::any_cast<std::pair<int, int>>(source.work_result());
+    EXPECT_EQ(done.first, i);
+    EXPECT_EQ(done.second, i);
+    EXPECT_EQ(frame.at<uint8_t>(0, 0), i);
+  }
+  try {
+    source.Read(&frame);
+    ADD_FAILURE() << "no Error from the work on frame 5";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("work: frame with value 5"), std::string::npos);
+  }
+  EXPECT_FALSE(source.Read(&frame));
   std::filesystem::remove_all(directory);
 }
 

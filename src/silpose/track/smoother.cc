@@ -187,7 +187,17 @@ TrackedFrame TrackSmoother::Release(Held held, const StateLookup& smoothed) {
 }
 
 std::vector<TrackedFrame> TrackSmoother::Process(const cv::Mat& frame) {
-  pending_.push_back(Hold(tracker_.Process(frame)));
+  return Queue(tracker_.Process(frame));
+}
+
+std::vector<TrackedFrame> TrackSmoother::Process(const cv::Mat& frame,
+                                                 SegmentationResult segmentation,
+                                                 double segment_ms) {
+  return Queue(tracker_.Process(frame, std::move(segmentation), segment_ms));
+}
+
+std::vector<TrackedFrame> TrackSmoother::Queue(TrackedFrame tracked) {
+  pending_.push_back(Hold(std::move(tracked)));
   std::vector<TrackedFrame> done;
   if (lag_ == kOffline || static_cast<int>(pending_.size()) <= lag_) return done;
   Held held = std::move(pending_.front());

@@ -76,6 +76,9 @@ class TrackSmoother {
   /// Tracks the next frame (Tracker::Process). Returns the frames that are now final, oldest
   /// first: with lag L the frame L frames back (none for the first L frames); offline none.
   std::vector<TrackedFrame> Process(const cv::Mat& frame);
+  /// The same for a frame segmented already (Tracker::Process with a segmentation).
+  std::vector<TrackedFrame> Process(const cv::Mat& frame, SegmentationResult segmentation,
+                                    double segment_ms);
   /// The frames still held, oldest first, smoothed by everything tracked so far (as above). Call
   /// once the stream has ended; the smoother is then empty (further Process calls go on with the
   /// same stream).
@@ -112,6 +115,8 @@ class TrackSmoother {
   /// The smoothed state of (frame, object the frame was reported as), if any.
   using StateLookup = std::function<std::optional<PoseState>(int64_t, int)>;
   Held Hold(TrackedFrame tracked);
+  /// Holds a frame just tracked; returns the frame that is now final, if one is.
+  std::vector<TrackedFrame> Queue(TrackedFrame tracked);
   /// `held` as final, re-posed if `smoothed` says so.
   TrackedFrame Release(Held held, const StateLookup& smoothed);
 

@@ -987,6 +987,16 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
 }
 
 TrackedFrame Tracker::Process(const cv::Mat& frame) {
+  return ProcessFrame(frame, nullptr, 0.0);
+}
+
+TrackedFrame Tracker::Process(const cv::Mat& frame, SegmentationResult segmentation,
+                              double segment_ms) {
+  return ProcessFrame(frame, &segmentation, segment_ms);
+}
+
+TrackedFrame Tracker::ProcessFrame(const cv::Mat& frame, SegmentationResult* segmented,
+                                   double segment_ms) {
   if (frame.empty()) ThrowError("frame ", frame_, " is empty");
   if (frame.cols != camera_.width_px || frame.rows != camera_.height_px) {
     ThrowError("frame ", frame_, " is ", frame.cols, "x", frame.rows, " pixels but the camera is ",
@@ -1006,8 +1016,19 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   TrackedFrame tracked;
   FrameResult& result = tracked.result;
   result.frame = frame_;
-  tracked.segmentation = segmenter_->Segment(frame);
-  result.time_segment_ms = lap();
+  if (segmented != nullptr) {
+    // Segmented outside: its time is the segmenter's, not this thread's.
+    if (segmented->mask.size() != frame.size() || segmented->mask.type() != CV_8UC1) {
+      ThrowError("frame ", frame_, ": the segmentation given is not a ", frame.cols, "x",
+                 frame.rows, " CV_8UC1 mask");
+    }
+    tracked.segmentation = std::move(*segmented);
+    lap();
+    result.time_segment_ms = segment_ms;
+  } else {
+    tracked.segmentation = segmenter_->Segment(frame);
+    result.time_segment_ms = lap();
+  }
   bool usable = false;
   if (tracked.segmentation.ok()) {
     tracked.silhouette =
@@ -1150,6 +1171,7 @@ TrackedFrame Tracker::Process(const cv::Mat& frame) {
   Assess(&tracked, usable, radii, view, shell);
   Canonicalise(&result, /*runner_up=*/true);
   result.time_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  if (segmented != nullptr) result.time_ms += segment_ms;
   ++frame_;
   return tracked;
 }

@@ -238,6 +238,15 @@ class Tracker {
   /// segment/segmenter.h). Throws silpose::Error if the frame is empty, of an unsupported type, or
   /// not of the camera's size.
   TrackedFrame Process(const cv::Mat& frame);
+  /// Processes the next frame of the stream, segmented already: `segmentation` is what a
+  /// Segmenter made with options().segmentation, fed every frame of the stream in order, gives
+  /// for `frame` (e.g. on another thread, while this one tracks the frame before, as `silpose
+  /// track` does with --read-ahead), and `segment_ms` the time it took. The result is that of
+  /// Process(frame); time_segment_ms is `segment_ms`, and time_ms includes it. Feed a stream
+  /// through one of the two overloads only: the tracker's own segmenter does not see the frames
+  /// given here. Throws as Process(frame), and if the mask is not a CV_8UC1 image of the frame's
+  /// size.
+  TrackedFrame Process(const cv::Mat& frame, SegmentationResult segmentation, double segment_ms);
 
   /// Frames processed so far.
   int num_frames() const { return frame_; }
@@ -327,6 +336,9 @@ class Tracker {
   std::unique_ptr<ViewSpectra> own_spectra_;
   const ViewSpectra* spectra_ = nullptr;
   std::unique_ptr<Segmenter> segmenter_;
+  /// Process of a frame segmented outside (`segmented` not null) or by segmenter_.
+  TrackedFrame ProcessFrame(const cv::Mat& frame, SegmentationResult* segmented,
+                            double segment_ms);
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
   using MirrorTwin = TrackedFrame::MirrorTwin;

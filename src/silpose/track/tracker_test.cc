@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <any>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include "silpose/pose/pose_error.h"
 #include "silpose/render/silhouette_renderer.h"
 #include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/segment_ahead.h"
 #include "silpose/util/error.h"
 
 namespace silpose {
@@ -209,6 +211,42 @@ TEST(Tracker, StageTimesSplitTheFrameTime) {
     EXPECT_TRUE(std::isnan(blank.result.time_pose_ms));
     EXPECT_TRUE(std::isnan(blank.result.time_refine_ms));
     EXPECT_EQ(std::isfinite(blank.result.time_match_ms), !brute_force);
+  }
+}
+
+TEST(Tracker, AFrameSegmentedAheadIsTrackedAsWhenTheTrackerSegmentsIt) {
+  // `silpose track` segments each frame on the thread that reads the frames (SegmentAhead) and
+  // gives the tracker the result: the frames must come out as when the tracker segments them.
+  TrackerOptions options;
+  options.filter.seed = 5;
+  Tracker own(Database(), Sequence().camera(), options);
+  Tracker given(Database(), Sequence().camera(), options);
+  const ReadAheadSource::FrameWork segment = SegmentAhead(options.segmentation);
+  for (int f = 0; f < 30; ++f) {
+    const cv::Mat mask = Sequence().Generate(f).mask;
+    const TrackedFrame by_own = own.Process(mask);
+    AheadSegmentation ahead = std::any_cast<AheadSegmentation>(segment(mask));
+    const double ms = ahead.ms;
+    ASSERT_TRUE(ahead.result.ok()) << f;
+    const TrackedFrame by_given = given.Process(mask, std::move(ahead.result), ms);
+    EXPECT_EQ(EstimateText(by_given.result), EstimateText(by_own.result)) << "frame " << f;
+    EXPECT_EQ(by_given.result.status, by_own.result.status);
+    EXPECT_EQ(by_given.result.confidence, by_own.result.confidence) << "frame " << f;
+    EXPECT_EQ(cv::norm(by_given.segmentation.mask, by_own.segmentation.mask, cv::NORM_INF), 0.0);
+    // The segmentation's time is the one given, and part of the frame's.
+    EXPECT_EQ(by_given.result.time_segment_ms, ms);
+    EXPECT_GE(by_given.result.time_ms, ms);
+  }
+  // A mask that is not the frame's size is refused, naming the frame.
+  SegmentationResult wrong;
+  wrong.mask = cv::Mat::zeros(10, 10, CV_8UC1);
+  try {
+    given.Process(Sequence().Generate(30).mask, wrong, 0.1);
+    ADD_FAILURE() << "no Error for a 10x10 mask";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("frame 30: the segmentation given"),
+              std::string::npos)
+        << error.what();
   }
 }
 
