@@ -206,10 +206,10 @@ TEST_F(CliTrackTest, FramesReadAheadTrackAlike) {
                              "/background.png --seed 4 -o ";
   const CommandResult ahead = Silpose(common + Path("ahead.csv"));
   ASSERT_EQ(ahead.exit_code, 0) << ahead.err;
-  EXPECT_NE(ahead.out.find("waiting for the frames read ahead"), std::string::npos) << ahead.out;
+  EXPECT_NE(ahead.out.find("(done on the reading thread; + "), std::string::npos) << ahead.out;
   const CommandResult in_turn = Silpose(common + Path("in_turn.csv") + " --read-ahead 0");
   ASSERT_EQ(in_turn.exit_code, 0) << in_turn.err;
-  EXPECT_NE(in_turn.out.find(" ms reading)"), std::string::npos) << in_turn.out;
+  EXPECT_NE(in_turn.out.find(" ms reading), "), std::string::npos) << in_turn.out;
   const CommandResult deep = Silpose(common + Path("deep.csv") + " --read-ahead 7");
   ASSERT_EQ(deep.exit_code, 0) << deep.err;
   const std::vector<std::string> rows = ReadLines(Path("ahead.csv"));

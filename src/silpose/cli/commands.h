@@ -51,7 +51,7 @@ struct TrackJob {
   std::vector<std::string> models;
   std::string masks_out;
   int max_frames = 0;
-  /// Frames read (decoded) ahead on a thread of their own; 0 reads them on the tracking thread.
+  /// Frames read (decoded and segmented) ahead on a thread of their own; 0: on the tracking thread.
   int read_ahead = 2;
   // Segmentation.
   std::string segment = "mask";

@@ -35,7 +35,6 @@ namespace {
 // --read-ahead: more frames ahead only hold more memory (a colour frame is about 1 MB).
 constexpr int kMaxReadAhead = 64;
 
-
 // The number an image file is named by ("000012.png" -> 12), else -1 (videos: "video.avi#12").
 int NumericStem(const std::string& name) {
   const std::string stem = std::filesystem::path(name).stem().string();
@@ -148,7 +147,8 @@ std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackJob& arguments
 // that brings it under (docs/limits.md), and says so.
 constexpr double kMaxBackgroundPixels = 9e6;
 
-// The --downscale background subtraction runs at on frames of this size (LimitBackgroundSubtraction).
+// The --downscale background subtraction runs at on frames of this size
+// (LimitBackgroundSubtraction).
 int BackgroundDownscale(cv::Size frame_size, const SegmenterOptions& segment) {
   if (segment.kind != SegmenterKind::kBackground) return segment.downscale;
   const double pixels = static_cast<double>(frame_size.width) * frame_size.height;
@@ -266,16 +266,26 @@ void PrintSmoothing(const TrackJob& arguments, const TrackSmoother& smoother, in
       smoother.num_revised(), frames, smoother.num_kept_live());
 }
 
+// `wall_ms`: from the first frame's processing to the end of the last, reading included.
 void PrintSummary(const TrackJob& arguments, const TrackReport& report, int measured,
-                  double total_ms, double decode_ms) {
+                  double total_ms, double decode_ms, double wall_ms) {
   const int frames = report.num_frames();
   if (frames == 0) return;
-  std::printf(
-      "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame (+ %.2f ms "
-      "%s)%s\n",
-      frames, measured, arguments.input.c_str(), total_ms / frames, decode_ms / frames,
-      arguments.read_ahead > 0 ? "waiting for the frames read ahead" : "reading",
-      arguments.tracker.brute_force ? ", brute force" : "");
+  const std::string input =
+      arguments.input + (arguments.tracker.brute_force ? ", brute force" : "");
+  if (arguments.read_ahead > 0) {
+    std::printf(
+        "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame, segmentation "
+        "included (done on the reading thread; + %.2f ms waiting for frames), %.0f frames/s\n",
+        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames,
+        1000.0 * frames / wall_ms);
+  } else {
+    std::printf(
+        "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame (+ %.2f ms "
+        "reading), %.0f frames/s\n",
+        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames,
+        1000.0 * frames / wall_ms);
+  }
   const TrackReport::StageTimes stages = report.MeanStageTimes();
   std::printf(
       "mean ms per stage (frames where it ran): segment %.3f, describe %.3f, match %.3f, "
@@ -528,6 +538,11 @@ void RunTrackJob(const TrackJob& arguments) {
   int measured = 0;
   int rows_written = 0;  // POSES.csv rows on disk
   double total_ms = 0.0;
+  const auto loop_start = std::chrono::steady_clock::now();
+  const auto wall_ms = [&loop_start] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - loop_start)
+        .count();
+  };
   std::unique_ptr<TrackSmoother> smoother;
   if (arguments.smooth || arguments.lag > 0) {
     smoother = std::make_unique<TrackSmoother>(
@@ -669,14 +684,14 @@ void RunTrackJob(const TrackJob& arguments) {
         std::fprintf(stderr, "warning: %s\n", second.what());
       }
     }
-    PrintSummary(arguments, report, measured, total_ms, decode_ms);
+    PrintSummary(arguments, report, measured, total_ms, decode_ms, wall_ms());
     ThrowError(fault.what(), " (stopped after ", rows_written, " frames; their results are in ",
                arguments.output, ")");
   }
   progress.Finish();
   outputs.Close();
   WritePlots(arguments, report);
-  PrintSummary(arguments, report, measured, total_ms, decode_ms);
+  PrintSummary(arguments, report, measured, total_ms, decode_ms, wall_ms());
   std::printf("wrote %s", arguments.output.c_str());
   for (const std::string* extra : {&arguments.json, &arguments.bop, &arguments.overlay,
                                    &arguments.plots, &arguments.masks_out}) {
@@ -736,8 +751,8 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--max-frames", arguments->max_frames, "Stop after N frames (0: all)");
   command
       ->add_option("--read-ahead", arguments->read_ahead,
-                   "Frames decoded ahead of the tracking on a second thread, so that decoding "
-                   "overlaps it (0: decode on the tracking thread)")
+                   "Frames decoded and segmented ahead of the tracking on a second thread, so "
+                   "that both overlap it (0: on the tracking thread)")
       ->capture_default_str();
   ParticleFilterOptions& filter = arguments->tracker.filter;
   command

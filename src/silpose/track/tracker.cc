@@ -986,9 +986,7 @@ TrackedFrame Tracker::Revise(const TrackedFrame& frame, const PoseState& state) 
   return revised;
 }
 
-TrackedFrame Tracker::Process(const cv::Mat& frame) {
-  return ProcessFrame(frame, nullptr, 0.0);
-}
+TrackedFrame Tracker::Process(const cv::Mat& frame) { return ProcessFrame(frame, nullptr, 0.0); }
 
 TrackedFrame Tracker::Process(const cv::Mat& frame, SegmentationResult segmentation,
                               double segment_ms) {

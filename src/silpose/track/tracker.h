@@ -337,8 +337,7 @@ class Tracker {
   const ViewSpectra* spectra_ = nullptr;
   std::unique_ptr<Segmenter> segmenter_;
   /// Process of a frame segmented outside (`segmented` not null) or by segmenter_.
-  TrackedFrame ProcessFrame(const cv::Mat& frame, SegmentationResult* segmented,
-                            double segment_ms);
+  TrackedFrame ProcessFrame(const cv::Mat& frame, SegmentationResult* segmented, double segment_ms);
   std::unique_ptr<ParticleFilter> filter_;
   std::unique_ptr<ViewMatcher> matcher_;
   using MirrorTwin = TrackedFrame::MirrorTwin;

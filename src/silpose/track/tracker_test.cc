@@ -244,8 +244,7 @@ TEST(Tracker, AFrameSegmentedAheadIsTrackedAsWhenTheTrackerSegmentsIt) {
     given.Process(Sequence().Generate(30).mask, wrong, 0.1);
     ADD_FAILURE() << "no Error for a 10x10 mask";
   } catch (const Error& error) {
-    EXPECT_NE(std::string(error.what()).find("frame 30: the segmentation given"),
-              std::string::npos)
+    EXPECT_NE(std::string(error.what()).find("frame 30: the segmentation given"), std::string::npos)
         << error.what();
   }
 }
