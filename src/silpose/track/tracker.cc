@@ -1020,6 +1020,10 @@ TrackedFrame Tracker::ProcessFrame(const cv::Mat& frame, SegmentationResult* seg
       ThrowError("frame ", frame_, ": the segmentation given is not a ", frame.cols, "x",
                  frame.rows, " CV_8UC1 mask");
     }
+    if (!(std::isfinite(segment_ms) && segment_ms >= 0.0)) {
+      ThrowError("frame ", frame_, ": the segmentation time given must be >= 0 ms, got ",
+                 segment_ms);
+    }
     tracked.segmentation = std::move(*segmented);
     lap();
     result.time_segment_ms = segment_ms;

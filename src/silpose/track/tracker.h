@@ -245,7 +245,7 @@ class Tracker {
   /// Process(frame); time_segment_ms is `segment_ms`, and time_ms includes it. Feed a stream
   /// through one of the two overloads only: the tracker's own segmenter does not see the frames
   /// given here. Throws as Process(frame), and if the mask is not a CV_8UC1 image of the frame's
-  /// size.
+  /// size or `segment_ms` is not a time (negative, NaN).
   TrackedFrame Process(const cv::Mat& frame, SegmentationResult segmentation, double segment_ms);
 
   /// Frames processed so far.

@@ -237,9 +237,15 @@ TEST(Tracker, AFrameSegmentedAheadIsTrackedAsWhenTheTrackerSegmentsIt) {
     EXPECT_EQ(by_given.result.time_segment_ms, ms);
     EXPECT_GE(by_given.result.time_ms, ms);
   }
+  // A time that is not one is refused.
+  for (const double bad_ms : {-1.0, std::nan("")}) {
+    SegmentationResult fine;
+    fine.mask = cv::Mat(Sequence().Generate(30).mask.size(), CV_8UC1, cv::Scalar(0));
+    EXPECT_THROW(given.Process(Sequence().Generate(30).mask, fine, bad_ms), Error) << bad_ms;
+  }
   // A mask that is not the frame's size is refused, naming the frame.
   SegmentationResult wrong;
-  wrong.mask = cv::Mat::zeros(10, 10, CV_8UC1);
+  wrong.mask = cv::Mat(10, 10, CV_8UC1, cv::Scalar(0));
   try {
     given.Process(Sequence().Generate(30).mask, wrong, 0.1);
     ADD_FAILURE() << "no Error for a 10x10 mask";
