@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <any>
 #include <atomic>
 #include <fstream>
 #include <iterator>
@@ -24,8 +25,11 @@
 #include "silpose/eval/handheld_experiment.h"
 #include "silpose/eval/self_match.h"
 #include "silpose/eval/tracking_experiment.h"
+#include "silpose/io/frame_source.h"
+#include "silpose/io/read_ahead_source.h"
 #include "silpose/match/view_matcher.h"
 #include "silpose/synth/synthetic_sequence.h"
+#include "silpose/track/segment_ahead.h"
 #include "silpose/track/tracker.h"
 
 namespace silpose {
@@ -65,6 +69,16 @@ const SyntheticSequence& Sequence() {
   return *sequence;
 }
 
+// A frame's status, object, roll, view and translation, printed exactly.
+std::string EstimateLine(const FrameResult& result) {
+  std::ostringstream line;
+  line.precision(17);
+  line << result.status << ' ' << result.object << ' ' << result.roll_deg;
+  if (result.view_dir_in_object) line << ' ' << result.view_dir_in_object->transpose();
+  if (result.camera_from_object) line << ' ' << result.camera_from_object->translation.transpose();
+  return line.str();
+}
+
 // Per frame: status, object, roll, view and translation, printed exactly. With `shared`, the
 // tracker matches with those spectra instead of its own.
 std::vector<std::string> Track(const TrackerOptions& options = {},
@@ -79,14 +93,7 @@ std::vector<std::string> Track(const TrackerOptions& options = {},
   Tracker& tracker = *own;
   std::vector<std::string> estimates;
   for (int f = 0; f < Sequence().num_frames(); ++f) {
-    const FrameResult result = tracker.Process(Sequence().Generate(f).mask).result;
-    std::ostringstream line;
-    line.precision(17);
-    line << result.status << ' ' << result.object << ' ' << result.roll_deg;
-    if (result.view_dir_in_object) line << ' ' << result.view_dir_in_object->transpose();
-    if (result.camera_from_object)
-      line << ' ' << result.camera_from_object->translation.transpose();
-    estimates.push_back(line.str());
+    estimates.push_back(EstimateLine(tracker.Process(Sequence().Generate(f).mask).result));
   }
   return estimates;
 }
@@ -230,6 +237,39 @@ TEST_F(SharedBetweenThreads, ASequenceWrittenOnTwoThreadsIsTheOneWrittenOnOne) {
     ++masks;
   }
   EXPECT_EQ(masks, 16);
+  std::filesystem::remove_all(base);
+}
+
+TEST_F(SharedBetweenThreads, FramesReadAndSegmentedAheadAreTrackedAsFramesReadInTurn) {
+  // `silpose track` reads and segments each frame on a second thread (ReadAheadSource with
+  // SegmentAhead) while the tracker works on the frame before.
+  const std::filesystem::path base =
+      std::filesystem::temp_directory_path() / ("silpose_read_ahead_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(base);
+  SequenceWriteOptions write;
+  write.num_threads = 1;
+  WriteSequence(Sequence(), base, write);
+  const std::vector<std::string> in_turn = Track();
+  ASSERT_EQ(in_turn.size(), 16u);
+  const TrackerOptions options;
+  for (const int depth : {1, 2, 5}) {
+    ReadAheadSource source(OpenFrameSource(base.string()), depth,
+                           SegmentAhead(options.segmentation));
+    Tracker tracker(Database(), Sequence().camera(), options);
+    std::vector<std::string> ahead;
+    for (cv::Mat frame; source.Read(&frame);) {
+      auto& segmented = std::any_cast<AheadSegmentation&>(source.work_result());
+      ahead.push_back(
+          EstimateLine(tracker.Process(frame, std::move(segmented.result), segmented.ms).result));
+    }
+    EXPECT_EQ(ahead, in_turn) << "depth " << depth;
+  }
+  // Stopped after a few frames, the reading thread still ends (the destructor joins it).
+  {
+    ReadAheadSource source(OpenFrameSource(base.string()), 2, SegmentAhead(options.segmentation));
+    cv::Mat frame;
+    for (int f = 0; f < 3; ++f) ASSERT_TRUE(source.Read(&frame));
+  }
   std::filesystem::remove_all(base);
 }
 

@@ -147,8 +147,8 @@ std::vector<std::optional<TriangleMesh>> OverlayMeshes(const TrackJob& arguments
 // that brings it under (docs/limits.md), and says so.
 constexpr double kMaxBackgroundPixels = 9e6;
 
-// The --downscale background subtraction runs at on frames of this size
-// (LimitBackgroundSubtraction).
+// The --downscale that background subtraction runs at on frames of this size (at least the one
+// asked for; LimitBackgroundSubtraction).
 int BackgroundDownscale(cv::Size frame_size, const SegmenterOptions& segment) {
   if (segment.kind != SegmenterKind::kBackground) return segment.downscale;
   const double pixels = static_cast<double>(frame_size.width) * frame_size.height;
@@ -273,18 +273,17 @@ void PrintSummary(const TrackJob& arguments, const TrackReport& report, int meas
   if (frames == 0) return;
   const std::string input =
       arguments.input + (arguments.tracker.brute_force ? ", brute force" : "");
+  const double frames_per_second = 1000.0 * frames / std::max(wall_ms, 1e-3);
   if (arguments.read_ahead > 0) {
     std::printf(
         "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame, segmentation "
         "included (done on the reading thread; + %.2f ms waiting for frames), %.0f frames/s\n",
-        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames,
-        1000.0 * frames / wall_ms);
+        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames, frames_per_second);
   } else {
     std::printf(
         "tracked %d frames (%d with a usable silhouette) from %s: %.2f ms per frame (+ %.2f ms "
         "reading), %.0f frames/s\n",
-        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames,
-        1000.0 * frames / wall_ms);
+        frames, measured, input.c_str(), total_ms / frames, decode_ms / frames, frames_per_second);
   }
   const TrackReport::StageTimes stages = report.MeanStageTimes();
   std::printf(
