@@ -30,8 +30,10 @@ def model(name):
 CLI_ENV = {key: value for key, value in os.environ.items() if key != "LD_PRELOAD"}
 
 
-def run_cli(*args):
-    completed = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, env=CLI_ENV)
+def run_cli(*args, timeout=900):
+    # A run that does not end within `timeout` seconds fails the test, naming the command.
+    completed = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, env=CLI_ENV,
+                               timeout=timeout)
     if completed.returncode != 0:
         raise AssertionError(f"silpose {' '.join(map(str, args))} failed:\n{completed.stderr}")
     return completed

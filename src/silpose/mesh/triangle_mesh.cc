@@ -32,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "silpose/util/child_process.h"
 #include "silpose/util/error.h"
 
 // Formats are read by assimp, except OFF and PLY: assimp 5.2.5 hangs on a PLY file whose header is
@@ -780,27 +781,6 @@ void CapReaderMemory() {
   (void)setrlimit(RLIMIT_AS, &capped);
 }
 
-void WriteAll(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t written = write(fd, bytes.data(), bytes.size());
-    if (written < 0 && errno == EINTR) continue;
-    if (written <= 0) return;
-    bytes.remove_prefix(static_cast<size_t>(written));
-  }
-}
-
-std::string ReadAll(int fd) {
-  std::string bytes;
-  std::vector<char> buffer(1 << 16);
-  for (;;) {
-    const ssize_t got = read(fd, buffer.data(), buffer.size());
-    if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) break;
-    bytes.append(buffer.data(), static_cast<size_t>(got));
-  }
-  return bytes;
-}
-
 // The child's message: 0, the vertex and triangle counts (uint64) and their data as the mesh holds
 // them; or 1 and the error's text.
 static_assert(sizeof(Eigen::Vector3f) == 12 && sizeof(std::array<uint32_t, 3>) == 12);
@@ -837,60 +817,51 @@ void DecodeMesh(const fs::path& path, std::string_view bytes, TriangleMesh& mesh
 }
 
 void ReadWithAssimpInChild(const fs::path& path, TriangleMesh& mesh) {
-  // Without a child process (none can be made now), assimp reads here, as it would anyway.
-  const auto read_here = [&] {
-    MeshBuilder builder(path, mesh);
-    ReadWithAssimp(path, builder);
-  };
-  int fds[2];
-  if (pipe2(fds, O_CLOEXEC) != 0) return read_here();
-  const pid_t child = fork();
-  if (child < 0) {
-    close(fds[0]);
-    close(fds[1]);
-    return read_here();
-  }
-  if (child == 0) {
-    close(fds[0]);
+  const auto read_in_child = [&]() -> std::string {
     CapReaderMemory();
     // What a crashing reader prints (glibc's, assimp's or a sanitizer's report) is not the
     // file's error, which the parent reports.
     const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
     if (null >= 0) (void)dup2(null, STDERR_FILENO);
-    std::string message;
     try {
       TriangleMesh read;
       MeshBuilder builder(path, read);
       ReadWithAssimp(path, builder);
-      message = EncodeMesh(read);
+      return EncodeMesh(read);
     } catch (const std::exception& exception) {
-      message = std::string(1, '\1') + exception.what();
+      return std::string(1, '\1') + exception.what();
     } catch (...) {
-      message = std::string(1, '\1') + path.string() + ": cannot read mesh: unknown error";
+      return std::string(1, '\1') + path.string() + ": cannot read mesh: unknown error";
     }
-    WriteAll(fds[1], message);
-    _exit(0);  // no exit handlers, no flushing of the parent's buffers
+  };
+  // A child forked while another thread of this process held a lock can wait for it forever
+  // (RunInChildProcess explains): it is killed and the reading tried again; the lock is seldom
+  // held twice in a row.
+  constexpr int kAttempts = 3;
+  ChildProcessResult child;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    child = RunInChildProcess(read_in_child);
+    if (!child.started || !child.stuck) break;
   }
-  close(fds[1]);
-  const std::string message = ReadAll(fds[0]);
-  close(fds[0]);
-  int status = 0;
-  pid_t waited;
-  do {
-    waited = waitpid(child, &status, 0);
-  } while (waited < 0 && errno == EINTR);
-  if (waited == child && WIFSIGNALED(status)) {
+  if (!child.started || child.stuck) {
+    // No child could be made, or none got anywhere: assimp reads here, as it would anyway.
+    MeshBuilder builder(path, mesh);
+    ReadWithAssimp(path, builder);
+    return;
+  }
+  const int status = child.wait_status;
+  if (WIFSIGNALED(status)) {
     const int signal = WTERMSIG(status);
     const char* name = sigabbrev_np(signal);
     ThrowUnreadable(path, "the reader of its format crashed on it (SIG" +
                               std::string(name != nullptr ? name : std::to_string(signal)) +
                               "); the file is probably corrupt");
   }
-  if (message.empty() || (waited == child && (!WIFEXITED(status) || WEXITSTATUS(status) != 0))) {
-    ThrowUnreadable(
-        path, "the reader of its format failed on it (exit status " +
-                  std::to_string(waited == child && WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                  "); the file is probably corrupt");
+  const std::string& message = child.output;
+  if (message.empty() || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    ThrowUnreadable(path, "the reader of its format failed on it (exit status " +
+                              std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
+                              "); the file is probably corrupt");
   }
   if (message[0] == '\1') ThrowError(message.substr(1));  // the child's error names the file
   DecodeMesh(path, message, mesh);

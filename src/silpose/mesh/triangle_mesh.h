@@ -40,8 +40,10 @@ bool IsClosedSurface(const TriangleMesh& mesh);
 /// triangle mesh, node transforms applied, polygons triangulated; points and lines are dropped.
 /// PLY and OFF are read by silpose, the other formats by assimp in a child process (fork), so that
 /// a reader that crashes on a corrupt file, or asks for more than half of the machine's memory,
-/// makes that file's error. Throws silpose::Error naming the file if it is missing, unreadable, of
-/// an unknown format, has no triangles, or has non-finite vertex coordinates.
+/// makes that file's error (a child that waits forever for a lock it inherited is killed and the
+/// file read again: RunInChildProcess, silpose/util/child_process.h). Throws silpose::Error naming
+/// the file if it is missing, unreadable, of an unknown format, has no triangles, or has non-finite
+/// vertex coordinates.
 TriangleMesh LoadMesh(const std::filesystem::path& path);
 
 }  // namespace silpose
