@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cctype>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -422,6 +424,35 @@ TEST_F(LoadMeshTest, TriangulatesQuads) {
   EXPECT_NEAR(area, 2.0, 1e-6);
   EXPECT_LT((mesh.Centre() - Eigen::Vector3d(1, 0.5, 0)).norm(), 1e-6);
   EXPECT_NEAR(mesh.Radius(), std::sqrt(1.25), 1e-6);
+}
+
+TEST_F(LoadMeshTest, LoadsWhileOtherThreadsAllocate) {
+  // assimp reads in a child process forked from this one while three other threads allocate and
+  // free memory (as a Python program's or a parallel build's threads do). A child that inherits a
+  // lock one of them held waits for it forever; it must be noticed and the file read again, so
+  // that every load ends with the mesh.
+  const std::filesystem::path path =
+      Write("quad.obj", "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nf 1 2 3 4\n");
+  std::atomic<bool> done{false};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&done, t] {
+      std::mt19937 random(static_cast<unsigned>(t));
+      std::vector<std::vector<char>> held(16);
+      while (!done.load(std::memory_order_relaxed)) {
+        // Small blocks and large ones (which take the allocator's global paths).
+        const size_t size = random() % 4 == 0 ? 200000 + random() % 100000 : 16 + random() % 4000;
+        held[random() % held.size()].assign(size, 'x');
+      }
+    });
+  }
+  for (int i = 0; i < 20; ++i) {
+    const TriangleMesh mesh = LoadMesh(path);
+    EXPECT_EQ(mesh.triangles.size(), 2u);
+    EXPECT_EQ(mesh.vertices.size(), 4u);
+  }
+  done = true;
+  for (std::thread& thread : threads) thread.join();
 }
 
 TEST_F(LoadMeshTest, MergesObjectsAndDropsPointsLinesAndUnusedVertices) {
