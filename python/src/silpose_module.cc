@@ -13,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -192,6 +193,16 @@ TrackResult ToTrackResult(TrackedFrame&& tracked) {
   return out;
 }
 
+// Calls on one object from several Python threads (the GIL is released while they run) take turns:
+// each object below has a mutex `calls`, locked after the GIL is released (never the other way
+// round, so a thread holding it can always take the GIL back) for as long as the call works on it.
+
+// Python's Tracker.
+struct PyTracker final : Tracker {
+  using Tracker::Tracker;
+  std::mutex calls;
+};
+
 // A tracker and the smoother fed through it (Python's Smoother owns both).
 struct SmoothedTracker {
   SmoothedTracker(const ViewDatabase& database, const PinholeCamera& camera, TrackerOptions options,
@@ -208,6 +219,7 @@ struct SmoothedTracker {
   }
   std::unique_ptr<Tracker> tracker;
   std::unique_ptr<TrackSmoother> smoother;
+  std::mutex calls;
 };
 
 std::vector<TrackResult> ToTrackResults(std::vector<TrackedFrame>&& frames) {
@@ -256,11 +268,13 @@ class Matcher {
   }
 
   const ViewDatabase& database() const { return database_; }
+  std::mutex& calls() { return calls_; }
 
  private:
   const ViewDatabase& database_;
   ViewSpectra spectra_;
   ViewMatcher matcher_;
+  std::mutex calls_;
 };
 
 // Synthetic sequences: the library's SyntheticSequence with the options `silpose synth` exposes
@@ -345,15 +359,23 @@ class FrameReader {
     source_ = OpenFrameSource(input, options);
     if (read_ahead > 0) source_ = std::make_unique<ReadAheadSource>(std::move(source_), read_ahead);
   }
+  // With the GIL released.
   std::optional<cv::Mat> Next() {
+    const std::lock_guard<std::mutex> one_call(calls_);
     cv::Mat frame;  // a new buffer per frame: the previous array may still be in use
     if (!source_->Read(&frame)) return std::nullopt;
     return frame;
   }
-  FrameSource& source() { return *source_; }
+  // What `read` returns of the source, read while no Next() runs.
+  template <typename Read>
+  auto Ask(const Read& read) {
+    const std::lock_guard<std::mutex> one_call(calls_);
+    return read(static_cast<const FrameSource&>(*source_));
+  }
 
  private:
   std::unique_ptr<FrameSource> source_;
+  std::mutex calls_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -745,7 +767,8 @@ void BindMatch(py::module_& m) {
 
   py::class_<Matcher>(m, "Matcher",
                       "Matches single silhouettes against a whole database (as 'silpose match'); "
-                      "keeps the database alive. One per thread.")
+                      "keeps the database alive. Calls from several threads take turns: one per "
+                      "thread matches in parallel.")
       .def(py::init<const ViewDatabase&>(), py::arg("database"), py::keep_alive<1, 2>(),
            "A matcher over `database`.")
       .def(
@@ -756,6 +779,7 @@ void BindMatch(py::module_& m) {
             options.top_k = top_k;
             options.exhaustive = exhaustive;
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(matcher.calls());
             return matcher.MatchMask(view, options);
           },
           py::arg("mask"), py::arg("top_k") = 5, py::arg("exhaustive") = false,
@@ -775,6 +799,7 @@ void BindMatch(py::module_& m) {
             options.exhaustive = exhaustive;
             const std::span<const float> values(radii.data(), static_cast<size_t>(radii.size()));
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(matcher.calls());
             return matcher.MatchSignature(values, options);
           },
           py::arg("radii"), py::arg("top_k") = 5, py::arg("exhaustive") = false,
@@ -1015,13 +1040,14 @@ void BindTrack(py::module_& m) {
                r.result.status + ">";
       });
 
-  py::class_<Tracker>(m, "Tracker",
-                      "The per-frame pipeline of 'silpose track' for one video stream: "
-                      "segmentation, silhouette, particle filter, 6-DOF pose. Keeps the database "
-                      "alive.")
+  py::class_<PyTracker>(m, "Tracker",
+                        "The per-frame pipeline of 'silpose track' for one video stream: "
+                        "segmentation, silhouette, particle filter, 6-DOF pose. Keeps the database "
+                        "alive.")
       .def(py::init([](const ViewDatabase& database, const PinholeCamera& camera,
                        std::optional<TrackerOptions> options) {
-             return std::make_unique<Tracker>(database, camera, options.value_or(TrackerOptions{}));
+             return std::make_unique<PyTracker>(database, camera,
+                                                options.value_or(TrackerOptions{}));
            }),
            py::arg("database"), py::arg("camera"), py::arg("options") = py::none(),
            py::keep_alive<1, 2>(),
@@ -1029,9 +1055,10 @@ void BindTrack(py::module_& m) {
            "invalid options or camera.")
       .def(
           "process",
-          [](Tracker& tracker, const py::array& frame) {
+          [](PyTracker& tracker, const py::array& frame) {
             const cv::Mat view = MatView(frame, "frame");
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(tracker.calls);
             return ToTrackResult(tracker.Process(view));
           },
           py::arg("frame"),
@@ -1040,19 +1067,26 @@ void BindTrack(py::module_& m) {
           "of another size than the camera's or of an unsupported type.")
       .def(
           "process_many",
-          [](Tracker& tracker, const std::vector<py::array>& frames) {
+          [](PyTracker& tracker, const std::vector<py::array>& frames) {
             std::vector<cv::Mat> views;
             for (const py::array& frame : frames) views.push_back(MatView(frame, "frame"));
             std::vector<TrackResult> results;
             results.reserve(views.size());
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(tracker.calls);
             for (const cv::Mat& view : views)
               results.push_back(ToTrackResult(tracker.Process(view)));
             return results;
           },
           py::arg("frames"),
           "process() of each frame in turn, in one call (the GIL is released throughout).")
-      .def_property_readonly("num_frames", &Tracker::num_frames, "Frames processed so far.")
+      .def_property_readonly(
+          "num_frames",
+          [](PyTracker& tracker) {
+            const std::lock_guard<std::mutex> one_call(tracker.calls);
+            return tracker.num_frames();
+          },
+          "Frames processed so far.")
       .def_property_readonly("camera", &Tracker::camera, "The camera of the frames.")
       .def_property_readonly("database", &Tracker::database,
                              py::return_value_policy::reference_internal,
@@ -1081,6 +1115,7 @@ void BindTrack(py::module_& m) {
           [](SmoothedTracker& smoothed, const py::array& frame) {
             const cv::Mat view = MatView(frame, "frame");
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(smoothed.calls);
             return ToTrackResults(smoothed.smoother->Process(view));
           },
           py::arg("frame"),
@@ -1091,6 +1126,7 @@ void BindTrack(py::module_& m) {
           "finish",
           [](SmoothedTracker& smoothed) {
             py::gil_scoped_release release;
+            const std::lock_guard<std::mutex> one_call(smoothed.calls);
             return ToTrackResults(smoothed.smoother->Finish());
           },
           "The results still held, oldest first, smoothed by everything tracked. Call at the "
@@ -1099,16 +1135,32 @@ void BindTrack(py::module_& m) {
           "lag", [](const SmoothedTracker& s) { return s.smoother->lag(); },
           "Frames of lag, or Smoother.OFFLINE.")
       .def_property_readonly(
-          "num_frames", [](const SmoothedTracker& s) { return s.tracker->num_frames(); },
+          "num_frames",
+          [](SmoothedTracker& s) {
+            const std::lock_guard<std::mutex> one_call(s.calls);
+            return s.tracker->num_frames();
+          },
           "Frames tracked so far.")
       .def_property_readonly(
-          "num_pending", [](const SmoothedTracker& s) { return s.smoother->num_pending(); },
+          "num_pending",
+          [](SmoothedTracker& s) {
+            const std::lock_guard<std::mutex> one_call(s.calls);
+            return s.smoother->num_pending();
+          },
           "Frames tracked whose results are not out yet.")
       .def_property_readonly(
-          "num_revised", [](const SmoothedTracker& s) { return s.smoother->num_revised(); },
+          "num_revised",
+          [](SmoothedTracker& s) {
+            const std::lock_guard<std::mutex> one_call(s.calls);
+            return s.smoother->num_revised();
+          },
           "Results so far whose object or view the smoothing changed.")
       .def_property_readonly(
-          "num_kept_live", [](const SmoothedTracker& s) { return s.smoother->num_kept_live(); },
+          "num_kept_live",
+          [](SmoothedTracker& s) {
+            const std::lock_guard<std::mutex> one_call(s.calls);
+            return s.smoother->num_kept_live();
+          },
           "Results so far the smoothing would have re-posed at a pose fitting the silhouette "
           "worse than the live one (a lower IoU, or none measured), returned as tracked.");
 
@@ -1158,17 +1210,23 @@ void BindTrack(py::module_& m) {
           "The next frame: (H, W) or (H, W, 3) uint8 (BGR). Raises silpose.Error for a corrupt "
           "frame.")
       .def_property_readonly(
-          "fps", [](FrameReader& reader) { return reader.source().fps(); },
+          "fps",
+          [](FrameReader& reader) {
+            return reader.Ask([](const FrameSource& s) { return s.fps(); });
+          },
           "Frames per second stated by the input; 0 if unknown.")
       .def_property_readonly(
           "num_frames",
           [](FrameReader& reader) -> py::object {
-            const auto frames = reader.source().num_frames();
+            const auto frames = reader.Ask([](const FrameSource& s) { return s.num_frames(); });
             return frames ? py::object(py::int_(*frames)) : py::none();
           },
           "Number of frames if known, else None.")
       .def_property_readonly(
-          "name", [](FrameReader& reader) { return reader.source().name(); },
+          "name",
+          [](FrameReader& reader) {
+            return reader.Ask([](const FrameSource& s) { return s.name(); });
+          },
           "Name of the last frame read ('000012.png', 'video.avi#12').");
 }
 
