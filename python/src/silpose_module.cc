@@ -194,8 +194,9 @@ TrackResult ToTrackResult(TrackedFrame&& tracked) {
 }
 
 // Calls on one object from several Python threads (the GIL is released while they run) take turns:
-// each object below has a mutex `calls`, locked after the GIL is released (never the other way
-// round, so a thread holding it can always take the GIL back) for as long as the call works on it.
+// each object below has a mutex `calls`. A working call takes it after releasing the GIL and lets
+// go of it before taking the GIL back, so a thread that holds it never waits for the GIL; the
+// property getters take it with the GIL held, and wait at most for the call in progress.
 
 // Python's Tracker.
 struct PyTracker final : Tracker {
