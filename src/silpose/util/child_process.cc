@@ -9,8 +9,6 @@
 
 #include <cerrno>
 #include <chrono>
-#include <cstdio>
-#include <exception>
 #include <fstream>
 #include <iterator>
 #include <optional>
